@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Installs what insalign needs to build and test on Debian 12 (run as root; apt-get only).
+set -euo pipefail
+export DEBIAN_FRONTEND=noninteractive
+packages=(
+  build-essential cmake ninja-build pkg-config git
+  libeigen3-dev libceres-dev libtbb-dev libnanoflann-dev
+  nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libfmt-dev liblzf-dev libstb-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+)
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  apt-get update -qq
+  apt-get install -y -qq --no-install-recommends "${missing[@]}"
+fi

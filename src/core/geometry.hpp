@@ -1,0 +1,47 @@
+// Rigid-transform helpers shared by every stage. Naming: T_a_b maps frame b into frame a.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace insalign {
+
+using Vec3 = Eigen::Vector3d;
+using Vec3f = Eigen::Vector3f;
+using Mat3 = Eigen::Matrix3d;
+using Mat6 = Eigen::Matrix<double, 6, 6>;
+using Vec6 = Eigen::Matrix<double, 6, 1>;
+using Iso3 = Eigen::Isometry3d;
+
+constexpr double kDegPerRad = 57.29577951308232;
+constexpr double kRadPerDeg = 1.0 / kDegPerRad;
+
+/// ZYX Euler angles (R = Rz(yaw) * Ry(pitch) * Rx(roll)), radians, as [roll, pitch, yaw].
+Vec3 rpy_from_rotation(const Mat3& R);
+Mat3 rotation_from_rpy(const Vec3& rpy_rad);
+
+/// Build a transform from translation (m) and ZYX roll, pitch, yaw (deg).
+Iso3 make_transform(const Vec3& t_m, const Vec3& rpy_deg);
+
+/// SO(3) exponential and logarithm (rotation vector, radians).
+Mat3 so3_exp(const Vec3& omega_rad);
+Vec3 so3_log(const Mat3& R);
+
+/// Apply a small right-multiplied perturbation: T * exp([rho, omega]) with the rotation applied
+/// separately (translation not coupled), the parametrisation used by the stage optimisers:
+/// R' = R * exp(omega), t' = t + rho.
+Iso3 perturb(const Iso3& T, const Vec6& delta_rho_omega);
+
+/// Orthonormalise a nearly-rotation matrix (closest rotation in the Frobenius norm).
+Mat3 nearest_rotation(const Mat3& M);
+
+/// Error of an estimate against a ground truth in the INS frame, as CONVENTIONS.md defines it.
+struct ExtrinsicError {
+  Vec3 dt_m;          ///< |t_est - t_gt| per axis, metres
+  Vec3 drpy_deg;      ///< |roll|, |pitch|, |yaw| of R_est * R_gt^T (ZYX), degrees
+  double angle_deg;   ///< rotation angle of R_est * R_gt^T
+  double dt_norm_m;   ///< norm of t_est - t_gt
+};
+ExtrinsicError extrinsic_error(const Iso3& T_ins_lidar_est, const Iso3& T_ins_lidar_gt);
+
+}  // namespace insalign
