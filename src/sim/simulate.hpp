@@ -1,0 +1,125 @@
+// Synthetic calibration drives with ground truth: a seeded scene of analytic primitives, a vehicle
+// trajectory, a spinning LiDAR ray-cast from its true pose at every firing instant, and an INS that
+// reports noisy poses on its own clock. Everything here is in memory; the CLI writes the files.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/dataset.hpp"
+#include "core/geometry.hpp"
+#include "core/pose_stream.hpp"
+#include "core/sweep.hpp"
+
+namespace insalign::sim {
+
+enum class SceneKind { kIntersection, kFeaturePoor };
+enum class TrajectoryKind { kFigure8, kStraight, kStandstill, kRecorded };
+/// Axes of the INS body frame relative to the vehicle.
+enum class InsAxes {
+  kXForward,  ///< ROS REP-103: x forward, y left, z up
+  kYForward,  ///< NovAtel sample: x right, y forward, z up
+};
+
+struct SimConfig {
+  std::uint64_t seed = 1;
+  SceneKind scene = SceneKind::kIntersection;
+  TrajectoryKind trajectory = TrajectoryKind::kFigure8;
+  /// For kRecorded: T_world_ins of a real drive (any INS axes; the forward axis is detected from the
+  /// motion). Re-timed to start at the simulation epoch, recentred and lightly smoothed.
+  std::vector<StampedPose> recorded_trajectory;
+  int figure8_loops = 3;            ///< kFigure8: loops of the figure-8 (~1000 frames at 15 km/h)
+  double speed_kmh = 15.0;          ///< cruise speed (kFigure8, kStraight)
+  double duration_s = 0;            ///< 0 = the trajectory's natural length; >0 truncates
+  std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64"
+  double azimuth_step_deg = 0.2;    ///< horizontal resolution (1800 columns per turn)
+  double frame_rate_hz = 10.0;      ///< spin rate; one frame per revolution
+  double range_noise_m = 0.02;      ///< Gaussian sigma along the ray
+  double dropout_prob = 0.02;       ///< probability that a return is lost
+  double max_range_m = 120.0;       ///< no return beyond this
+  InsAxes ins_axes = InsAxes::kXForward;
+  /// 1 = NovAtel class: position white ~1 cm plus a slow random-walk drift of a few cm over the
+  /// drive; attitude white ~0.01 deg roll/pitch, ~0.03 deg yaw. 0 = perfect poses.
+  double ins_noise_scale = 1.0;
+  double time_offset_s = 0.0;       ///< t_ins = t_lidar + offset
+  std::optional<Iso3> T_ins_lidar;  ///< unset: random roof mount (any yaw, roll/pitch within 10 deg)
+  double init_rot_err_deg = 20.0;   ///< rotation error of the written initial guess (random axis)
+  double init_trans_err_m = 0.5;    ///< translation error of the initial guess (random direction)
+  int n_fiducials = 6;              ///< surveyed ground points
+  double fiducial_noise_m = 0.005;  ///< survey noise sigma per axis
+};
+
+/// A spinning LiDAR: beam elevations (ring r = index r) and its name.
+struct LidarModel {
+  std::string name;
+  std::vector<double> elevation_deg;  ///< per ring
+};
+/// Throws std::invalid_argument for an unknown name.
+LidarModel lidar_model(const std::string& name);
+std::vector<std::string> lidar_model_names();
+
+struct Scene;  // primitives and their BVH (scene.hpp)
+
+/// Slow INS position drift: a random walk sampled at knots, interpolated linearly.
+struct InsDrift {
+  double t0_s = 0.0, knot_spacing_s = 1.0;
+  std::vector<Vec3> knots_m;
+  Vec3 at(double t_s) const;
+};
+
+/// Everything that does not change from frame to frame. Built once; render_sweep is thread-safe.
+struct World {
+  SimConfig config;
+  LidarModel lidar;
+  std::shared_ptr<const Scene> scene;
+  PoseStream poses_true;             ///< true T_world_ins, INS clock, dense (200 Hz)
+  Iso3 T_ins_lidar_true = Iso3::Identity();
+  Iso3 T_ins_lidar_init = Iso3::Identity();
+  std::vector<double> frame_times_s; ///< nominal frame (sweep end) times, LiDAR clock
+  std::vector<Fiducial> fiducials;   ///< surveyed (noisy) world points
+  double ins_height_m = 0.0;         ///< INS origin height above the ground (mean for kRecorded)
+  InsDrift drift;
+  std::size_t frame_count() const { return frame_times_s.size(); }
+};
+
+/// Builds scene, trajectory, extrinsic and fiducials. Throws std::invalid_argument on a bad config.
+World build_world(const SimConfig& config);
+
+/// Frame k: one revolution ending at frame_times_s[k], each column measured from the sensor's true
+/// pose at its own instant; t_end_s = the latest point time; name = frame_name(t_end_s).
+Sweep render_sweep(const World& world, std::size_t k);
+
+/// What the INS reports at the given INS times: truth plus noise (white per sample, drift shared).
+/// `stream` separates independent white-noise draws (e.g. per-frame file vs 100 Hz file).
+std::vector<StampedPose> reported_poses(const World& world, const std::vector<double>& t_ins_s,
+                                        std::uint64_t stream);
+/// INS times of the per-frame pose file: numerically the frame times (the INS clock stamp that a
+/// user without time-offset knowledge pairs with the frame).
+std::vector<double> frame_pose_times(const World& world, const std::vector<Sweep>& sweeps);
+/// A reported pose stream at rate_hz covering every sweep of the drive (the TUM file).
+std::vector<StampedPose> dense_reported_poses(const World& world, double rate_hz = 100.0);
+
+/// "1700000000.100000": the decimal frame time, microseconds.
+std::string frame_name(double t_s);
+
+struct SimDataset {                 ///< everything in memory (tests); the CLI streams frames instead
+  std::vector<Sweep> sweeps;        ///< raw, motion-distorted; t_end_s = LiDAR clock
+  PoseStream poses;                 ///< reported (noisy) T_world_ins, one per frame, stamped t_end_s (INS clock)
+  PoseStream poses_true;            ///< true T_world_ins (dense, for tests)
+  Iso3 T_ins_lidar_true = Iso3::Identity(), T_ins_lidar_init = Iso3::Identity();
+  double time_offset_s = 0.0;
+  std::vector<Fiducial> fiducials;  ///< surveyed (noisy) world points on the ground
+  double ins_height_m = 0.0;        ///< true height of the INS origin above the ground plane
+};
+
+SimDataset simulate(const SimConfig& config,
+                    const std::function<void(std::size_t done, std::size_t total)>& progress = {});
+
+/// Core Dataset (FrameSource over the sweeps, reported poses, fiducials, initial guess).
+Dataset to_dataset(const SimDataset& sim);
+
+}  // namespace insalign::sim
