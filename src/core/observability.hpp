@@ -1,0 +1,49 @@
+// Which degrees of freedom of the extrinsic the data determines, from the information matrix of
+// the point-to-plane residuals (Gauss-Newton J^T J, residuals in metres).
+//
+// Perturbation (the same in every stage that reports it): in the INS frame, R' = exp(w) R,
+// t' = t + rho, ordered [rho_x rho_y rho_z w_x w_y w_z] = tx ty tz (m), roll pitch yaw (rad);
+// so tz is the INS vertical and yaw is the rotation about it.
+#pragma once
+
+#include <array>
+#include <limits>
+#include <optional>
+#include <string>
+
+#include "core/geometry.hpp"
+
+namespace insalign {
+
+struct ObservabilityConfig {
+  /// A DOF is determined when its standard deviation (sigma * sqrt of the diagonal of the
+  /// inverse information over the determined block) is below these. See observability.cpp for
+  /// why these values.
+  double max_stddev_trans_m = 0.01;
+  double max_stddev_rot_deg = 0.05;
+};
+
+struct DofVerdict {
+  std::array<bool, 6> determined{};  ///< tx ty tz roll pitch yaw
+  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());  ///< m, rad; inf if undetermined
+  Vec6 information_eigen = Vec6::Zero();  ///< eigenvalues of the (scaled) information, ascending, m^-2 units
+  std::string explanation;           ///< human readable: which DOFs and why
+
+  bool all_determined() const;
+};
+
+/// Names of the DOFs in verdict order: "tx", "ty", "tz", "roll", "pitch", "yaw".
+const std::array<const char*, 6>& dof_names();
+
+/// Per-DOF verdict from the 6x6 information (J^T J) and the residual standard deviation.
+/// Undetermined DOFs are removed greedily (largest standard deviation first) until the rest
+/// all meet the thresholds.
+DofVerdict assess_observability(const Mat6& information, double residual_sigma_m,
+                                const ObservabilityConfig& config = {});
+
+/// Throw-free: the reason the extrinsic cannot be calibrated (any DOF other than tz undetermined),
+/// or nothing. tz alone undetermined is expected for planar driving (fiducials or a height
+/// prior fix it later) and is not a reason.
+std::optional<std::string> unobservable_reason(const DofVerdict& verdict);
+
+}  // namespace insalign
