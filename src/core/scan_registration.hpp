@@ -1,0 +1,42 @@
+// Scan-to-scan registration: point-to-plane ICP between two point clouds (used by the global
+// initialisation to measure LiDAR relative motion for hand-eye calibration).
+#pragma once
+
+#include <vector>
+
+#include "core/geometry.hpp"
+
+namespace insalign {
+
+struct ScanRegistrationConfig {
+  int max_iterations = 30;                ///< Gauss-Newton iterations over all stages
+  double max_corr_dist_start_m = 1.5;     ///< correspondence gate of the first iteration
+  double max_corr_dist_end_m = 0.3;       ///< gate shrinks geometrically to this
+  int normal_neighbours = 8;              ///< k nearest target points for a target normal
+  double max_plane_thickness_m = 0.08;    ///< target points whose neighbourhood is thicker get no normal
+  double huber_delta_m = 0.1;             ///< robust kernel on point-to-plane residuals
+  double converged_step_m = 1e-4;         ///< stop when the update is below this (m and rad)
+  int min_inliers = 100;                  ///< fewer correspondences: not converged
+};
+
+struct ScanRegistrationResult {
+  Iso3 T_target_source = Iso3::Identity();
+  bool converged = false;
+  int iterations = 0;
+  int num_inliers = 0;
+  double rms_m = 0.0;          ///< RMS point-to-plane residual of the inliers at the end
+  double inlier_ratio = 0.0;   ///< inliers / source points at the final gate
+  /// Smallest eigenvalue of the 6x6 Gauss-Newton information, normalised by inliers: a small value
+  /// flags a degenerate (corridor-like) geometry whose motion along some direction is unknown.
+  double min_information = 0.0;
+};
+
+/// Point-to-plane ICP: finds T_target_source so that T_target_source * source lies on target surfaces.
+ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std::vector<Vec3>& source,
+                                      const Iso3& T_target_source_init,
+                                      const ScanRegistrationConfig& config = {});
+
+/// One point per occupied voxel (the centroid), order deterministic.
+std::vector<Vec3> voxel_downsample(const std::vector<Vec3>& points, double voxel_m);
+
+}  // namespace insalign
