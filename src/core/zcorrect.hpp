@@ -1,0 +1,100 @@
+// Stage 3: the vertical lever arm tz. Planar driving cannot reveal it (a change of tz lifts the
+// whole map), so an absolute reference fixes it: surveyed fiducials on surfaces the LiDAR sees,
+// or the known height of the INS origin above the ground.
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/dataset.hpp"
+#include "core/geometry.hpp"
+
+namespace insalign {
+
+/// How a fiducial is compared with the map around it.
+enum class FiducialMatch {
+  kNearestNeighbour,  ///< height of the map point horizontally nearest the fiducial (the paper)
+  kLocalPlane,        ///< robust plane through the map points near it, evaluated at the fiducial
+};
+
+struct ZConfig {
+  /// kLocalPlane averages the LiDAR range noise of many points instead of taking one point's;
+  /// measured better (see bench/z_accuracy.cpp and the README numbers).
+  FiducialMatch match = FiducialMatch::kLocalPlane;
+  /// Map points within this horizontal distance of a fiducial form its local map. Small, so
+  /// ground slope and nearby objects matter little; large enough for several scan rings.
+  double search_radius_m = 0.5;
+  /// A fiducial (or a height-prior frame) needs at least this many map points to be used.
+  std::size_t min_points = 10;
+  /// A fiducial whose implied dz differs from the median of all by more than
+  /// max(outlier_threshold_m, outlier_mad_factor * 1.4826 * MAD) is rejected as an outlier
+  /// (occluded, moved or mistyped). The floor keeps a handful of agreeing fiducials (MAD of a
+  /// few mm) from rejecting a good one at 5 mm survey noise; 5 cm is 10 sigma of that noise.
+  double outlier_threshold_m = 0.05;
+  double outlier_mad_factor = 4.0;
+  /// Fewer usable fiducials than this and tz is not determined (3 allows an outlier to show).
+  std::size_t min_fiducials = 3;
+  /// Survey noise assumed for each fiducial (1 sigma); enters the weights and tz_stddev_m.
+  double fiducial_sigma_m = 0.005;
+  /// Points nearer to the LiDAR than this are the car body or its shadow and are dropped.
+  double min_range_m = 2.5;
+  /// Frames used for a fiducial: those whose LiDAR passes within [min_view_distance_m,
+  /// max_view_distance_m] horizontally of it, nearest first, at most frames_per_fiducial of
+  /// them (ground sampling is densest at short range; more frames cost load time).
+  double min_view_distance_m = 3.0;
+  double max_view_distance_m = 20.0;
+  std::size_t frames_per_fiducial = 8;
+  /// Frames closer in time than this to an already chosen one for the same fiducial are
+  /// skipped, so the chosen frames see it from different places (independent errors).
+  double min_frame_separation_s = 0.3;
+
+  // Height prior (--ins-height-m): the ground under the INS origin from the stitched map.
+  /// Number of places along the drive where the ground height under the INS is measured.
+  std::size_t height_samples = 16;
+  /// Ground points within this horizontal distance of the INS origin are fitted by a plane.
+  double ground_radius_m = 4.0;
+  /// Neighbouring frames (within this time of the sample) are stitched in, so the ground
+  /// under the car (hidden from its own sweep) is seen from where the car was or will be.
+  double ground_window_s = 1.0;
+  std::size_t ground_frames_per_sample = 3;
+  /// A ground plane steeper than this is not ground (a ramp wall, a car side).
+  double max_ground_slope_deg = 15.0;
+};
+
+/// One fiducial's comparison with the map. Residual = fiducial z - map surface z at the
+/// fiducial's horizontal position, before and after the correction.
+struct FiducialResidual {
+  std::string id;
+  double residual_before_m = std::numeric_limits<double>::quiet_NaN();
+  double residual_after_m = std::numeric_limits<double>::quiet_NaN();
+  bool used = false;
+  std::string reason_rejected;  ///< empty when used
+  std::size_t map_points = 0;   ///< map points near it that the match used
+};
+
+struct ZResult {
+  bool determined = false;
+  std::string method = "none";  ///< "fiducials", "ins-height" or "none"
+  /// Plain words for the report, e.g. "tz not determined: no fiducials and no --ins-height-m
+  /// given; kept at the initial value".
+  std::string explanation;
+  Iso3 T_ins_lidar = Iso3::Identity();  ///< tz corrected (unchanged if not determined)
+  double dz_m = 0.0;                    ///< added to tz
+  double tz_stddev_m = std::numeric_limits<double>::quiet_NaN();
+  std::vector<FiducialResidual> fiducials;
+  std::size_t height_samples_used = 0;  ///< height prior: places where the ground was measured
+  std::size_t frames_loaded = 0;
+  double wall_time_s = 0.0;
+};
+
+/// Corrects tz of T_ins_lidar (its rotation and tx, ty are kept). Uses data.fiducials if there
+/// are any, else ins_height_m (height of the INS origin above the ground) if given, else
+/// nothing. Frames are placed with per-point deskew and time_offset_s (LiDAR -> INS clock).
+/// Never throws for lack of data: determined = false and the explanation says why.
+ZResult correct_z(const Dataset& data, const Iso3& T_ins_lidar, double time_offset_s,
+                  std::optional<double> ins_height_m, const ZConfig& config = {});
+
+}  // namespace insalign
