@@ -1,0 +1,159 @@
+#include "core/pipeline.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sstream>
+
+#include "core/errors.hpp"
+
+namespace insalign {
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+std::string format_spread(const Vec6& spread) {
+  std::ostringstream os;
+  os.precision(3);
+  os << "x " << spread[0] * 100 << " cm, y " << spread[1] * 100 << " cm, roll " << spread[3] << " deg, pitch "
+     << spread[4] << " deg, yaw " << spread[5] << " deg";
+  return os.str();
+}
+
+// Stages 1 and 2 on one segment, from the pipeline's start; failures are results, not errors.
+SegmentResult calibrate_segment(const Dataset& segment, const Iso3& T_ins_lidar_start, double time_offset_start_s,
+                                const PipelineConfig& config) {
+  SegmentResult out;
+  out.frames = segment.frames.frames.size();
+  out.t_begin_s = segment.frames.frames.front().t_end_s;
+  out.t_end_s = segment.frames.frames.back().t_end_s;
+  try {
+    const RoughResult rough = calibrate_rough(segment, T_ins_lidar_start, config.rough);
+    if (auto reason = unobservable_reason(rough.observability)) {
+      out.message = *reason;
+      return out;
+    }
+    out.T_ins_lidar = rough.T_ins_lidar;
+    out.time_offset_s = time_offset_start_s;
+    if (config.run_refine) {
+      const RefineResult refine = refine_extrinsic(segment, rough.T_ins_lidar, time_offset_start_s, config.refine);
+      out.T_ins_lidar = refine.T_ins_lidar;
+      out.time_offset_s = refine.time_offset_s;
+    }
+    out.ok = true;
+  } catch (const UnobservableError& e) {
+    out.message = e.what();
+  }
+  return out;
+}
+
+}  // namespace
+
+Dataset frame_subset(const Dataset& data, std::size_t begin, std::size_t end) {
+  Dataset out;
+  out.poses = data.poses;
+  out.world_origin_m = data.world_origin_m;
+  out.fiducials = data.fiducials;
+  out.T_ins_lidar_init = data.T_ins_lidar_init;
+  out.frames.frames.assign(data.frames.frames.begin() + begin, data.frames.frames.begin() + end);
+  out.frames.load = [load = data.frames.load, begin](std::size_t i) { return load(begin + i); };
+  return out;
+}
+
+CalibrationResult run_calibration(const Dataset& data, const PipelineConfig& config,
+                                  const PipelineProgress& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto report = [&](std::string_view step, double fraction) {
+    if (progress) progress(step, fraction);
+  };
+  CalibrationResult result;
+
+  // 0. Can this drive determine anything? Decided from the poses alone, before loading sweeps.
+  result.motion = check_motion(data.poses, data.frames.frames, config.motion);
+  if (!result.motion.ok) throw UnobservableError(result.motion.explanation);
+
+  // 1. Start: from the data, or the given initial guess checked against the data.
+  report("init", 0.0);
+  result.init = initialise_extrinsic(data, data.T_ins_lidar_init, config.init);
+  report("init", 1.0);
+  if (result.init.source == "data-overrides-init") result.warnings.push_back(result.init.explanation);
+
+  // 2. Stage 1.
+  result.rough = calibrate_rough(data, result.init.T_ins_lidar, config.rough,
+                                 [&](double f) { report("rough", f); });
+  if (auto reason = unobservable_reason(result.rough.observability)) throw UnobservableError(*reason);
+  result.T_ins_lidar = result.rough.T_ins_lidar;
+  result.time_offset_s = 0.0;
+  for (int i = 0; i < 6; ++i) {
+    result.determined[i] = result.rough.observability.determined[i];
+    result.stddev[i] = result.rough.observability.stddev[i] * (i >= 3 ? kDegPerRad : 1.0);
+  }
+
+  // 3. Stage 2.
+  if (config.run_refine) {
+    result.refine = refine_extrinsic(data, result.T_ins_lidar, result.time_offset_s, config.refine,
+                                     [&](double f) { report("refine", f); });
+    result.T_ins_lidar = result.refine->T_ins_lidar;
+    result.time_offset_s = result.refine->time_offset_s;
+    for (int i = 0; i < 6; ++i) {
+      if (i != 2 && result.refine->stddev[i] > 0.0) result.stddev[i] = result.refine->stddev[i];
+    }
+  }
+
+  // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
+  report("z", 0.0);
+  result.z = correct_z(data, result.T_ins_lidar, result.time_offset_s, config.ins_height_m, config.z);
+  report("z", 1.0);
+  result.T_ins_lidar = result.z.T_ins_lidar;
+  result.determined[2] = result.z.determined || result.rough.tz_estimated;
+  if (result.z.determined) result.stddev[2] = result.z.tz_stddev_m;
+  if (!result.determined[2]) result.warnings.push_back(result.z.explanation);
+
+  // 5. Repeatability: disjoint time segments calibrated on their own from the same start.
+  const std::size_t n_frames = data.frames.frames.size();
+  if (config.repeatability_segments > 1) {
+    const std::size_t k = static_cast<std::size_t>(config.repeatability_segments);
+    // A segment holds 1/k of the drive, so it gets 1/k of the frames (same density, 1/k the time).
+    PipelineConfig segment_config = config;
+    segment_config.rough.frames.groups = std::max<std::size_t>(8, config.rough.frames.groups / k);
+    segment_config.refine.frames.max_frames = std::max<std::size_t>(40, config.refine.frames.max_frames / k);
+    for (std::size_t s = 0; s < k; ++s) {
+      report("repeatability", static_cast<double>(s) / k);
+      const Dataset segment = frame_subset(data, s * n_frames / k, (s + 1) * n_frames / k);
+      if (segment.frames.frames.empty()) continue;
+      result.segments.push_back(calibrate_segment(segment, result.init.T_ins_lidar, 0.0, segment_config));
+    }
+    report("repeatability", 1.0);
+    Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
+    int ok = 0;
+    for (const SegmentResult& seg : result.segments) {
+      if (!seg.ok) continue;
+      ++ok;
+      Vec6 v;
+      v.head<3>() = seg.T_ins_lidar.translation();
+      // Rotation relative to the full result, in the INS frame, as ZYX angles in degrees.
+      v.tail<3>() = rpy_from_rotation(seg.T_ins_lidar.linear() * result.T_ins_lidar.linear().transpose()) * kDegPerRad;
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
+    if (ok >= 2) {
+      result.segment_spread = hi - lo;
+      result.segment_spread[2] = 0.0;  // tz is not estimated per segment
+      const bool large = result.segment_spread.head<2>().maxCoeff() > config.repeatability_warn_trans_m ||
+                         result.segment_spread.tail<3>().maxCoeff() > config.repeatability_warn_rot_deg;
+      if (large) {
+        result.warnings.push_back("segments of the drive disagree more than expected (" +
+                                  format_spread(result.segment_spread) +
+                                  "): check for moving objects, INS quality or a loose mount");
+      }
+    } else {
+      result.warnings.push_back("repeatability: fewer than two segments could be calibrated on their own");
+    }
+  }
+  result.wall_time_s = seconds_since(start);
+  return result;
+}
+
+}  // namespace insalign
