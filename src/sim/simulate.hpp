@@ -97,9 +97,10 @@ Sweep render_sweep(const World& world, std::size_t k);
 /// `stream` separates independent white-noise draws (e.g. per-frame file vs 100 Hz file).
 std::vector<StampedPose> reported_poses(const World& world, const std::vector<double>& t_ins_s,
                                         std::uint64_t stream);
-/// INS times of the per-frame pose file: numerically the frame times (the INS clock stamp that a
-/// user without time-offset knowledge pairs with the frame).
-std::vector<double> frame_pose_times(const World& world, const std::vector<Sweep>& sweeps);
+/// The per-frame pose file: for each frame time t_end (LiDAR clock) the pose the INS reports for
+/// INS time t_end, i.e. the stamp a user without time-offset knowledge pairs with the frame. With a
+/// nonzero offset the sweep was actually taken from the pose at INS time t_end + offset.
+std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s);
 /// A reported pose stream at rate_hz covering every sweep of the drive (the TUM file).
 std::vector<StampedPose> dense_reported_poses(const World& world, double rate_hz = 100.0);
 

@@ -1,0 +1,341 @@
+#include "sim/simulate.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <mutex>
+#include <numbers>
+#include <stdexcept>
+
+#include "sim/random.hpp"
+#include "sim/scene.hpp"
+#include "sim/trajectory.hpp"
+
+namespace insalign::sim {
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+/// LiDAR clock of the start of the motion (INS clock: the same number); frames end 1/rate later.
+constexpr double kEpochS = 1700000000.0;
+constexpr double kTruthRateHz = 200.0;
+// NovAtel-class INS noise at scale 1 (1 sigma).
+constexpr double kPosWhiteM = 0.01;
+constexpr double kPosDriftStepM = 0.004;  // per 1 s knot: ~4 cm after 100 s
+constexpr double kRollPitchWhiteDeg = 0.01;
+constexpr double kYawWhiteDeg = 0.03;
+constexpr std::uint64_t kStreamFramePoses = 1;
+constexpr std::uint64_t kStreamDensePoses = 2;
+
+void validate(const SimConfig& c) {
+  auto fail = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!(c.azimuth_step_deg >= 0.01 && c.azimuth_step_deg <= 10.0)) fail("azimuth step must be in [0.01, 10] deg");
+  if (!(c.frame_rate_hz >= 1.0 && c.frame_rate_hz <= 50.0)) fail("frame rate must be in [1, 50] Hz");
+  if (!(c.range_noise_m >= 0.0 && c.range_noise_m <= 1.0)) fail("range noise must be in [0, 1] m");
+  if (!(c.dropout_prob >= 0.0 && c.dropout_prob < 1.0)) fail("dropout probability must be in [0, 1)");
+  if (!(c.max_range_m >= 5.0 && c.max_range_m <= 1000.0)) fail("max range must be in [5, 1000] m");
+  if (!(c.ins_noise_scale >= 0.0 && c.ins_noise_scale <= 1000.0)) fail("INS noise scale must be in [0, 1000]");
+  if (!(std::abs(c.time_offset_s) <= 1.0)) fail("time offset must be within +-1 s");
+  if (!(c.duration_s >= 0.0 && c.duration_s <= 3600.0)) fail("duration must be in [0, 3600] s");
+  if (!(c.speed_kmh > 0.0 && c.speed_kmh <= 120.0)) fail("speed must be in (0, 120] km/h");
+  if (c.figure8_loops < 1 || c.figure8_loops > 100) fail("figure-8 loops must be in [1, 100]");
+  if (!(c.init_rot_err_deg >= 0.0 && c.init_rot_err_deg <= 180.0)) fail("initial rotation error must be in [0, 180] deg");
+  if (!(c.init_trans_err_m >= 0.0 && c.init_trans_err_m <= 100.0)) fail("initial translation error must be in [0, 100] m");
+  if (c.n_fiducials < 0 || c.n_fiducials > 1000) fail("fiducial count must be in [0, 1000]");
+  if (!(c.fiducial_noise_m >= 0.0 && c.fiducial_noise_m <= 1.0)) fail("fiducial noise must be in [0, 1] m");
+  if (c.trajectory == TrajectoryKind::kRecorded && c.recorded_trajectory.size() < 2)
+    fail("a recorded trajectory needs at least 2 poses");
+  if (c.T_ins_lidar && !c.T_ins_lidar->matrix().allFinite()) fail("given extrinsic is not finite");
+}
+
+// Random roof mount, physically placed: INS near the rear axle, LiDAR on the roof.
+Iso3 random_mount(Rng& rng, double ins_height_m, const Iso3& T_vehicle_ins) {
+  const double lidar_height_m = rng.uniform(1.8, 2.2);
+  const Vec3 t_vehicle(rng.uniform(0.3, 1.5), rng.uniform(-0.3, 0.3), lidar_height_m - ins_height_m);
+  const Vec3 rpy_deg(rng.uniform(-10.0, 10.0), rng.uniform(-10.0, 10.0), rng.uniform(-180.0, 180.0));
+  const Iso3 T_vehicle_lidar = make_transform(t_vehicle, rpy_deg);
+  return T_vehicle_ins.inverse() * T_vehicle_lidar;
+}
+
+// Surveyed ground points beside the path, spread along it, where nothing stands on them.
+std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, const std::vector<Vec2>& path, Rng& rng) {
+  std::vector<Fiducial> out;
+  double length = 0.0;
+  for (std::size_t i = 1; i < path.size(); ++i) length += (path[i] - path[i - 1]).norm();
+  for (int k = 0; k < c.n_fiducials; ++k) {
+    for (int attempt = 0; attempt < 50; ++attempt) {
+      Vec2 xy;
+      if (length < 5.0) {  // standstill: a ring around the vehicle
+        const double a = 2 * kPi * (k + 0.5) / c.n_fiducials + rng.normal(0.1);
+        xy = path.front() + rng.uniform(5.0, 12.0) * Vec2(std::cos(a), std::sin(a));
+      } else {
+        const double f = (k + 0.5) / c.n_fiducials + rng.normal(0.02);
+        const std::size_t i = std::min(path.size() - 1, static_cast<std::size_t>(std::clamp(f, 0.0, 1.0) * path.size()));
+        const Vec2 d = path[std::min(path.size() - 1, i + 1)] - path[i > 0 ? i - 1 : 0];
+        const Vec2 n = d.norm() > 1e-9 ? Vec2(-d.y(), d.x()) / d.norm() : Vec2(0, 1);
+        xy = path[i] + ((k % 2) ? 1.0 : -1.0) * rng.uniform(2.5, 4.0) * n;
+      }
+      // Free ground: a ray from above lands on the ground plane itself.
+      const double zg = scene.ground.z_at(xy.x(), xy.y());
+      const auto hit = scene.cast(Vec3(xy.x(), xy.y(), zg + 30.0), -Vec3::UnitZ(), 100.0);
+      if (!hit || std::abs(hit->range_m - 30.0) > 0.01) continue;
+      Fiducial f;
+      f.id = "F" + std::to_string(k + 1);
+      f.p_world = Vec3(xy.x(), xy.y(), zg) +
+                  Vec3(rng.normal(c.fiducial_noise_m), rng.normal(c.fiducial_noise_m), rng.normal(c.fiducial_noise_m));
+      out.push_back(f);
+      break;
+    }
+  }
+  return out;
+}
+
+}  // namespace
+
+LidarModel lidar_model(const std::string& name) {
+  LidarModel m;
+  m.name = name;
+  if (name == "pandar64") {
+    // Sparse at the top and bottom, a dense band (1/6 deg) around the horizon.
+    for (double e : {15.0, 11.0, 8.0, 5.0, 3.0}) m.elevation_deg.push_back(e);
+    for (int i = 0; i <= 48; ++i) m.elevation_deg.push_back(2.0 - i / 6.0);
+    for (double e : {-7.0, -8.0, -9.0, -10.0, -11.0, -12.0, -13.0, -14.0, -19.0, -25.0}) m.elevation_deg.push_back(e);
+  } else if (name == "hdl32") {
+    for (int i = 0; i < 32; ++i) m.elevation_deg.push_back(10.67 - i * (41.34 / 31.0));
+  } else if (name == "os1-64") {
+    for (int i = 0; i < 64; ++i) m.elevation_deg.push_back(16.6 - i * (33.2 / 63.0));
+  } else {
+    throw std::invalid_argument("unknown LiDAR model '" + name + "' (pandar64, hdl32, os1-64)");
+  }
+  return m;
+}
+
+std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64"}; }
+
+Vec3 InsDrift::at(double t_s) const {
+  if (knots_m.empty()) return Vec3::Zero();
+  const double f = (t_s - t0_s) / knot_spacing_s;
+  if (f <= 0.0) return knots_m.front();
+  const std::size_t i = static_cast<std::size_t>(f);
+  if (i + 1 >= knots_m.size()) return knots_m.back();
+  const double w = f - static_cast<double>(i);
+  return (1.0 - w) * knots_m[i] + w * knots_m[i + 1];
+}
+
+std::string frame_name(double t_s) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.6f", t_s);
+  return buf;
+}
+
+World build_world(const SimConfig& config) {
+  validate(config);
+  World w;
+  w.config = config;
+  w.lidar = lidar_model(config.lidar_model);
+  Rng rng(config.seed);
+  const Trajectory trajectory(config, rng);
+  const Iso3 T_vehicle_ins = vehicle_from_ins(config.ins_axes);
+  w.ins_height_m = trajectory.ins_height_m();
+
+  Rng mount_rng(hash_counters(config.seed, 0x3057));
+  w.T_ins_lidar_true = config.T_ins_lidar ? *config.T_ins_lidar : random_mount(mount_rng, w.ins_height_m, T_vehicle_ins);
+  // Initial guess: exactly the requested errors, in random directions (error as CONVENTIONS.md).
+  const Vec3 axis = mount_rng.unit_vector();
+  const Vec3 dir = mount_rng.unit_vector();
+  w.T_ins_lidar_init = Iso3::Identity();
+  w.T_ins_lidar_init.linear() = so3_exp(axis * config.init_rot_err_deg * kRadPerDeg) * w.T_ins_lidar_true.linear();
+  w.T_ins_lidar_init.translation() = w.T_ins_lidar_true.translation() + config.init_trans_err_m * dir;
+
+  const double period_s = 1.0 / config.frame_rate_hz;
+  std::size_t n_frames = config.duration_s > 0.0
+                             ? static_cast<std::size_t>(std::llround(config.duration_s * config.frame_rate_hz))
+                             : static_cast<std::size_t>(std::floor(trajectory.duration_s() * config.frame_rate_hz));
+  n_frames = std::max<std::size_t>(1, n_frames);
+  for (std::size_t k = 0; k < n_frames; ++k) w.frame_times_s.push_back(kEpochS + (k + 1) * period_s);
+
+  // Truth on the INS clock, dense, covering every sweep through the offset with a margin.
+  const double pad_s = 1.0 + std::abs(config.time_offset_s);
+  const double t_last = std::max(w.frame_times_s.back(), kEpochS + trajectory.duration_s());
+  const long long i0 = static_cast<long long>(std::floor(-pad_s * kTruthRateHz));
+  const long long i1 = static_cast<long long>(std::ceil((t_last - kEpochS + pad_s) * kTruthRateHz));
+  std::vector<StampedPose> truth;
+  truth.reserve(static_cast<std::size_t>(i1 - i0 + 1));
+  for (long long i = i0; i <= i1; ++i) {
+    const double tau = static_cast<double>(i) / kTruthRateHz;
+    truth.push_back({kEpochS + tau, trajectory.T_world_vehicle(tau) * T_vehicle_ins});
+  }
+  w.poses_true = PoseStream(std::move(truth));
+
+  w.scene = std::make_shared<const Scene>(make_scene(config.scene, config.seed, trajectory.loop_xy(), trajectory.ground()));
+
+  Rng fid_rng(hash_counters(config.seed, 0xF1D));
+  w.fiducials = place_fiducials(config, *w.scene, trajectory.loop_xy(), fid_rng);
+
+  Rng drift_rng(hash_counters(config.seed, 0xD21F7));
+  w.drift.t0_s = w.poses_true.t_begin();
+  w.drift.knot_spacing_s = 1.0;
+  Vec3 walk = Vec3::Zero();
+  const double step = kPosDriftStepM * config.ins_noise_scale;
+  for (double t = w.poses_true.t_begin(); t <= w.poses_true.t_end() + 1.0; t += 1.0) {
+    w.drift.knots_m.push_back(walk);
+    walk += Vec3(drift_rng.normal(step), drift_rng.normal(step), drift_rng.normal(step));
+  }
+  return w;
+}
+
+Sweep render_sweep(const World& world, std::size_t k) {
+  const SimConfig& c = world.config;
+  const Scene& scene = *world.scene;
+  const std::size_t n_cols = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(360.0 / c.azimuth_step_deg)));
+  const std::size_t n_beams = world.lidar.elevation_deg.size();
+  const double period_s = 1.0 / c.frame_rate_hz;
+  const double col_dt_s = period_s / static_cast<double>(n_cols);
+  const double step_rad = 2 * kPi / static_cast<double>(n_cols);
+  const double t_end_nominal = world.frame_times_s.at(k);
+  std::vector<double> cos_el(n_beams), sin_el(n_beams);
+  for (std::size_t b = 0; b < n_beams; ++b) {
+    cos_el[b] = std::cos(world.lidar.elevation_deg[b] * kRadPerDeg);
+    sin_el[b] = std::sin(world.lidar.elevation_deg[b] * kRadPerDeg);
+  }
+  // One slot per ray, compacted afterwards in firing order: deterministic whatever the threads do.
+  std::vector<Vec3f> slot_p(n_cols * n_beams);
+  std::vector<float> slot_i(n_cols * n_beams);
+  std::vector<std::uint8_t> slot_ok(n_cols * n_beams, 0);
+  const double max_cast_m = c.max_range_m + 5.0 * c.range_noise_m + 0.1;
+
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cols, 32), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t j = r.begin(); j < r.end(); ++j) {
+      const double t_lidar = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
+      // The sensor's TRUE pose at this column's instant (INS clock = LiDAR clock + offset).
+      const Iso3 T_world_lidar = world.poses_true.T_world_ins(t_lidar + c.time_offset_s) * world.T_ins_lidar_true;
+      const Mat3 R = T_world_lidar.linear();
+      const Vec3 origin = T_world_lidar.translation();
+      // Clockwise spin seen from above, starting behind the sensor.
+      const double az = kPi - static_cast<double>(j) * step_rad;
+      const double ca = std::cos(az), sa = std::sin(az);
+      for (std::size_t b = 0; b < n_beams; ++b) {
+        const std::uint64_t key = hash_counters(c.seed, k, j, b);
+        if (c.dropout_prob > 0.0 && unit_from_bits(splitmix64(key ^ 1)) < c.dropout_prob) continue;
+        const Vec3 d_lidar(cos_el[b] * ca, cos_el[b] * sa, sin_el[b]);
+        const Vec3 d_world = R * d_lidar;
+        const auto hit = scene.cast(origin, d_world, max_cast_m);
+        if (!hit) continue;
+        const double range = hit->range_m + c.range_noise_m * normal_from_bits(splitmix64(key ^ 2), splitmix64(key ^ 3));
+        if (range <= 0.3 || range > c.max_range_m) continue;
+        const double cos_inc = std::abs(hit->normal.dot(d_world));
+        const double intensity = 255.0 * hit->reflectivity * (0.25 + 0.75 * cos_inc) +
+                                 2.0 * normal_from_bits(splitmix64(key ^ 4), splitmix64(key ^ 5));
+        const std::size_t s = j * n_beams + b;
+        slot_p[s] = (d_lidar * range).cast<float>();
+        slot_i[s] = static_cast<float>(std::clamp(intensity, 0.0, 255.0));
+        slot_ok[s] = 1;
+      }
+    }
+  });
+
+  Sweep sweep;
+  std::size_t n = 0;
+  std::size_t last_col = n_cols - 1;
+  bool any = false;
+  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
+    if (!slot_ok[s]) continue;
+    ++n;
+    last_col = s / n_beams;
+    any = true;
+  }
+  // Frame time = the latest point time (normally the last column).
+  const double t_end = t_end_nominal - static_cast<double>(n_cols - 1 - (any ? last_col : n_cols - 1)) * col_dt_s;
+  sweep.t_end_s = t_end;
+  sweep.name = frame_name(t_end);
+  sweep.p_lidar.reserve(n);
+  sweep.dt_s.reserve(n);
+  sweep.intensity.reserve(n);
+  sweep.ring.reserve(n);
+  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
+    if (!slot_ok[s]) continue;
+    const std::size_t j = s / n_beams;
+    const double t = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
+    sweep.p_lidar.push_back(slot_p[s]);
+    sweep.dt_s.push_back(static_cast<float>(t - t_end));
+    sweep.intensity.push_back(slot_i[s]);
+    sweep.ring.push_back(static_cast<std::uint16_t>(s % n_beams));
+  }
+  return sweep;
+}
+
+std::vector<StampedPose> reported_poses(const World& world, const std::vector<double>& t_ins_s, std::uint64_t stream) {
+  const double scale = world.config.ins_noise_scale;
+  std::vector<StampedPose> out;
+  out.reserve(t_ins_s.size());
+  for (std::size_t i = 0; i < t_ins_s.size(); ++i) {
+    const double t = t_ins_s[i];
+    Iso3 T = world.poses_true.T_world_ins(t);
+    if (scale > 0.0) {
+      const std::uint64_t key = hash_counters(world.config.seed, 0xA11 + stream, i);
+      double g[6];
+      for (int q = 0; q < 6; ++q) g[q] = normal_from_bits(splitmix64(key ^ (2 * q + 1)), splitmix64(key ^ (2 * q + 2)));
+      T.translation() += world.drift.at(t) + scale * kPosWhiteM * Vec3(g[0], g[1], g[2]);
+      const Vec3 rpy_deg = scale * Vec3(kRollPitchWhiteDeg * g[3], kRollPitchWhiteDeg * g[4], kYawWhiteDeg * g[5]);
+      T.linear() = T.linear() * rotation_from_rpy(rpy_deg * kRadPerDeg);
+    }
+    out.push_back({t, T});
+  }
+  return out;
+}
+
+std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s) {
+  return reported_poses(world, t_end_s, kStreamFramePoses);
+}
+
+std::vector<StampedPose> dense_reported_poses(const World& world, double rate_hz) {
+  const double period_s = 1.0 / world.config.frame_rate_hz;
+  const double margin_s = std::abs(world.config.time_offset_s) + 0.2;
+  const double lo = std::max(world.poses_true.t_begin(), world.frame_times_s.front() - period_s - margin_s);
+  const double hi = std::min(world.poses_true.t_end(), world.frame_times_s.back() + margin_s);
+  std::vector<double> times;
+  for (long long i = static_cast<long long>(std::ceil(lo * rate_hz)); static_cast<double>(i) / rate_hz <= hi; ++i)
+    times.push_back(static_cast<double>(i) / rate_hz);
+  return reported_poses(world, times, kStreamDensePoses);
+}
+
+SimDataset simulate(const SimConfig& config, const std::function<void(std::size_t, std::size_t)>& progress) {
+  const World world = build_world(config);
+  SimDataset out;
+  const std::size_t n = world.frame_count();
+  out.sweeps.resize(n);
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    out.sweeps[k] = render_sweep(world, k);
+    const std::size_t d = ++done;
+    if (progress) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      progress(d, n);
+    }
+  });
+  std::vector<double> t_end;
+  for (const Sweep& s : out.sweeps) t_end.push_back(s.t_end_s);
+  out.poses = PoseStream(frame_poses(world, t_end));
+  out.poses_true = world.poses_true;
+  out.T_ins_lidar_true = world.T_ins_lidar_true;
+  out.T_ins_lidar_init = world.T_ins_lidar_init;
+  out.time_offset_s = config.time_offset_s;
+  out.fiducials = world.fiducials;
+  out.ins_height_m = world.ins_height_m;
+  return out;
+}
+
+Dataset to_dataset(const SimDataset& sim) {
+  Dataset d;
+  d.frames = frame_source_from(sim.sweeps);
+  d.poses = sim.poses;
+  d.fiducials = sim.fiducials;
+  d.T_ins_lidar_init = sim.T_ins_lidar_init;
+  return d;
+}
+
+}  // namespace insalign::sim
