@@ -28,5 +28,6 @@ Command make_info_command();
 Command make_calibrate_command();
 Command make_simulate_command();
 Command make_evaluate_command();
+Command make_stitch_command();
 
 }  // namespace insalign::cli

@@ -1,0 +1,90 @@
+// insalign stitch: the deskewed, stitched map of a drive for a given extrinsic, as PCD or PLY,
+// to inspect a calibration in CloudCompare or RViz.
+#include <fmt/core.h>
+
+#include <fstream>
+#include <memory>
+
+#include <nlohmann/json.hpp>
+
+#include "cli/commands.hpp"
+#include "core/errors.hpp"
+#include "core/refine.hpp"
+#include "io/dataset.hpp"
+#include "io/extrinsic_json.hpp"
+#include "io/pcd.hpp"
+#include "io/ply.hpp"
+
+namespace insalign::cli {
+namespace {
+
+struct StitchOptions {
+  std::string lidar_dir, poses, extrinsic, out;
+  double time_offset_s = 0.0;
+  bool time_offset_given = false;
+  double voxel_m = 0.1;
+  std::size_t max_frames = 120;
+};
+
+int run_stitch(const StitchOptions& o) {
+  io::DatasetPaths paths{o.lidar_dir, o.poses, std::nullopt, std::nullopt};
+  const Dataset data = io::load_dataset(paths);
+  // The extrinsic: a result extrinsic.json ("T_ins_lidar") or an OpenCalib JSON (T_lidar_ins).
+  Iso3 T_ins_lidar;
+  double time_offset_s = o.time_offset_s;
+  {
+    std::ifstream in(o.extrinsic);
+    if (!in) throw InputError(o.extrinsic, "", "cannot open");
+    nlohmann::json j;
+    try {
+      j = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::parse_error& e) {
+      throw InputError(o.extrinsic, "byte " + std::to_string(e.byte), "malformed JSON");
+    }
+    T_ins_lidar = j.contains("T_ins_lidar") ? io::transform_from_json(j["T_ins_lidar"], o.extrinsic)
+                                            : io::read_opencalib_extrinsic(o.extrinsic);
+    if (!o.time_offset_given && j.contains("time_offset_s") && j["time_offset_s"].is_number()) {
+      time_offset_s = j["time_offset_s"].get<double>();
+    }
+  }
+  StitchConfig config;
+  config.voxel_m = o.voxel_m;
+  config.frames.max_frames = o.max_frames;
+  const std::vector<Vec3f> p_world = stitch_map(data, T_ins_lidar, time_offset_s, config);
+  const std::filesystem::path out = o.out;
+  if (out.extension() == ".ply") {
+    io::write_ply(out, p_world);
+  } else {
+    Sweep map;
+    map.name = "map";
+    map.p_lidar = p_world;
+    io::write_pcd(out, map, io::PcdEncoding::kBinaryCompressed, io::PcdTimeField::kNone);
+  }
+  fmt::print("{} points from {} frames written to {} (world frame recentred by [{:.3f}, {:.3f}, {:.3f}] m)\n",
+             p_world.size(), std::min(o.max_frames, data.frames.frames.size()), out.string(), data.world_origin_m.x(),
+             data.world_origin_m.y(), data.world_origin_m.z());
+  return kExitOk;
+}
+
+}  // namespace
+
+Command make_stitch_command() {
+  auto o = std::make_shared<StitchOptions>();
+  Command command;
+  command.setup = [o](CLI::App& app) {
+    CLI::App* sub = app.add_subcommand("stitch", "Export the deskewed stitched map for an extrinsic (PCD or PLY)");
+    sub->add_option("--lidar-dir", o->lidar_dir, "folder of PCD sweeps")->required();
+    sub->add_option("--poses", o->poses, "INS pose file")->required();
+    sub->add_option("--extrinsic", o->extrinsic, "extrinsic.json of a result, or an OpenCalib JSON")->required();
+    sub->add_option("--out", o->out, "output file, .pcd or .ply")->required();
+    sub->add_option("--time-offset-s", o->time_offset_s, "LiDAR to INS clock offset (default: from the result)")
+        ->each([o](const std::string&) { o->time_offset_given = true; });
+    sub->add_option("--voxel-m", o->voxel_m, "map downsampling voxel")->capture_default_str();
+    sub->add_option("--max-frames", o->max_frames, "frames spread over the drive")->capture_default_str();
+    return sub;
+  };
+  command.run = [o] { return run_stitch(*o); };
+  return command;
+}
+
+}  // namespace insalign::cli
