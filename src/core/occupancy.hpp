@@ -24,19 +24,34 @@ std::vector<std::size_t> voxel_downsample_indices(const std::vector<Vec3f>& poin
 /// The points of voxel_downsample_indices.
 std::vector<Vec3f> voxel_downsample(const std::vector<Vec3f>& points, double voxel_m);
 
-/// Local plane thickness of a map: the points are binned into voxels of edge voxel_m; every voxel
-/// with at least min_points points whose covariance is planar (smallest eigenvalue below
-/// max_planarity times the middle one) contributes its smallest eigenvalue, i.e. the mean squared
-/// distance of its points to their best-fit plane.
+/// Local planes of a map: the points are binned into voxels of edge voxel_m; a voxel whose points
+/// are planar (smallest covariance eigenvalue below max_planarity times the middle one) becomes a
+/// plane, one that is not is split into octants down to min_voxel_m and each tried again.
 struct PlaneThicknessConfig {
   double voxel_m = 1.0;          ///< voxel edge, metres
+  double min_voxel_m = 1.0;      ///< split non-planar voxels down to this edge (= voxel_m: no split)
   int min_points = 10;           ///< fewer points: voxel skipped
   double max_planarity = 0.05;   ///< lambda_min / lambda_mid above this: not a plane, skipped
 };
+
+/// One fitted plane; its points are point_index[first, first + count) of LocalPlanes.
+struct LocalPlane {
+  Vec3 normal = Vec3::UnitZ();
+  Vec3 centroid = Vec3::Zero();
+  double lambda_min = 0.0;       ///< mean squared point-to-plane distance, m^2
+  std::uint32_t first = 0, count = 0;
+};
+struct LocalPlanes {
+  std::vector<LocalPlane> planes;
+  std::vector<std::uint32_t> point_index;  ///< indices into the input points
+};
+LocalPlanes fit_local_planes(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config = {});
+
+/// Plane thickness of a map (the smallest-eigenvalue cost of BALM, as a distance).
 struct PlaneThickness {
   std::size_t planes = 0;        ///< planar voxels found
   std::size_t points = 0;        ///< points in them
-  double rms_m = 0.0;            ///< sqrt(sum(n_i * lambda_min_i) / points): point-to-plane RMS
+  double rms_m = 0.0;            ///< sqrt(sum(count_i * lambda_min_i) / points): point-to-plane RMS
 };
 PlaneThickness plane_thickness(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config = {});
 

@@ -34,6 +34,7 @@ struct FramePickConfig {
   double max_range_m = 80.0;        ///< points farther than this are dropped (sparse, noisy)
   double frame_voxel_m = 0.15;      ///< per-frame downsampling in the LiDAR frame (one raw point,
                                     ///< with its own time, kept per voxel)
+  std::size_t max_points_per_frame = 10000;  ///< then thinned evenly to at most this many (0: no cap)
 };
 
 struct RefineConfig {
@@ -61,7 +62,10 @@ struct RefineConfig {
   int plane_min_points = 12;        ///< a local plane needs at least this many points
   double plane_max_planarity = 0.04;  ///< lambda_min / lambda_mid above this: not a plane
   double huber_m = 0.05;            ///< robust loss scale on point-to-plane distances, metres
-  int max_iterations = 15;          ///< Gauss-Newton iterations (planes re-fitted in each)
+  int max_iterations = 12;          ///< Gauss-Newton iterations at most
+  int refit_iterations = 3;         ///< planes re-found from the map in the first iterations; after
+                                    ///< that their point grouping is frozen (smooth cost) and only
+                                    ///< their centroids and normals follow the points
   double converged_rot_deg = 1e-4;  ///< stop when an update is below both thresholds
   double converged_trans_m = 1e-5;
   double time_offset_scan_step_s = 0.005;  ///< coarse offset scan before Gauss-Newton, seconds

@@ -1,0 +1,173 @@
+#include "core/occupancy.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <utility>
+
+namespace insalign {
+namespace {
+
+constexpr std::int64_t kKeyBias = 1 << 20;
+constexpr std::uint64_t kKeyMask = (1u << 21) - 1;
+
+std::uint64_t pack(std::int64_t ix, std::int64_t iy, std::int64_t iz) {
+  return (static_cast<std::uint64_t>(ix + kKeyBias) & kKeyMask) |
+         ((static_cast<std::uint64_t>(iy + kKeyBias) & kKeyMask) << 21) |
+         ((static_cast<std::uint64_t>(iz + kKeyBias) & kKeyMask) << 42);
+}
+
+using KeyIndex = std::pair<std::uint64_t, std::uint32_t>;
+
+std::vector<KeyIndex> sorted_keys(const std::vector<Vec3f>& points, double voxel_m) {
+  const float inv = static_cast<float>(1.0 / voxel_m);
+  std::vector<KeyIndex> keys(points.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = {voxel_key(points[i], inv), static_cast<std::uint32_t>(i)};
+  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  return keys;
+}
+
+// Mean and covariance of a set of points, in double around a local origin (float world
+// coordinates of hundreds of metres would lose the millimetres otherwise).
+struct Moments {
+  Vec3 mean = Vec3::Zero();
+  Mat3 cov = Mat3::Zero();
+};
+Moments moments(const std::vector<Vec3f>& points, const KeyIndex* begin, const KeyIndex* end) {
+  const Vec3 origin = points[begin->second].cast<double>();
+  Vec3 sum = Vec3::Zero();
+  Mat3 sum2 = Mat3::Zero();
+  for (const KeyIndex* it = begin; it != end; ++it) {
+    const Vec3 d = points[it->second].cast<double>() - origin;
+    sum += d;
+    sum2 += d * d.transpose();
+  }
+  const double n = static_cast<double>(end - begin);
+  Moments m;
+  const Vec3 mean_local = sum / n;
+  m.mean = origin + mean_local;
+  m.cov = sum2 / n - mean_local * mean_local.transpose();
+  return m;
+}
+
+// Fits one voxel (or octant) and recurses into octants when it is not planar.
+void fit_cell(const std::vector<Vec3f>& points, KeyIndex* begin, KeyIndex* end, const Vec3& center,
+              double size_m, const PlaneThicknessConfig& config, std::uint32_t offset,
+              std::vector<LocalPlane>& out) {
+  const auto n = end - begin;
+  if (n < config.min_points) return;
+  const Moments m = moments(points, begin, end);
+  Eigen::SelfAdjointEigenSolver<Mat3> es(m.cov);
+  const Vec3 lambda = es.eigenvalues().cwiseMax(0.0);
+  if (lambda(0) <= config.max_planarity * lambda(1)) {
+    LocalPlane plane;
+    plane.normal = es.eigenvectors().col(0);
+    plane.centroid = m.mean;
+    plane.lambda_min = lambda(0);
+    plane.first = offset;
+    plane.count = static_cast<std::uint32_t>(n);
+    out.push_back(plane);
+    return;
+  }
+  const double half = 0.5 * size_m;
+  if (half < config.min_voxel_m * (1.0 - 1e-9)) return;
+  // Octant of each point relative to the cell centre; group them and fit each.
+  const auto octant = [&](const KeyIndex& k) {
+    const Vec3f& p = points[k.second];
+    return (p.x() > center.x() ? 1 : 0) | (p.y() > center.y() ? 2 : 0) | (p.z() > center.z() ? 4 : 0);
+  };
+  std::sort(begin, end, [&](const KeyIndex& a, const KeyIndex& b) { return octant(a) < octant(b); });
+  KeyIndex* it = begin;
+  while (it != end) {
+    const int o = octant(*it);
+    KeyIndex* stop = it;
+    while (stop != end && octant(*stop) == o) ++stop;
+    const Vec3 child = center + 0.25 * size_m * Vec3((o & 1) ? 1 : -1, (o & 2) ? 1 : -1, (o & 4) ? 1 : -1);
+    fit_cell(points, it, stop, child, half, config, offset + static_cast<std::uint32_t>(it - begin), out);
+    it = stop;
+  }
+}
+
+}  // namespace
+
+std::uint64_t voxel_key(const Vec3f& p, float inv_voxel_m) {
+  return pack(static_cast<std::int64_t>(std::floor(p.x() * inv_voxel_m)),
+              static_cast<std::int64_t>(std::floor(p.y() * inv_voxel_m)),
+              static_cast<std::int64_t>(std::floor(p.z() * inv_voxel_m)));
+}
+
+std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m) {
+  const float inv = static_cast<float>(1.0 / voxel_m);
+  std::vector<std::uint64_t> keys(p_world.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, p_world.size(), 8192), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(p_world[i], inv);
+  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  return static_cast<std::size_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
+}
+
+std::vector<std::size_t> voxel_downsample_indices(const std::vector<Vec3f>& points, double voxel_m) {
+  const std::vector<KeyIndex> keys = sorted_keys(points, voxel_m);
+  std::vector<std::size_t> kept;
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    // Sorted by (key, index): the first of each run is the earliest point of that voxel.
+    if (i == 0 || keys[i].first != keys[i - 1].first) kept.push_back(keys[i].second);
+  }
+  std::sort(kept.begin(), kept.end());
+  return kept;
+}
+
+std::vector<Vec3f> voxel_downsample(const std::vector<Vec3f>& points, double voxel_m) {
+  std::vector<Vec3f> out;
+  for (std::size_t i : voxel_downsample_indices(points, voxel_m)) out.push_back(points[i]);
+  return out;
+}
+
+LocalPlanes fit_local_planes(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config) {
+  std::vector<KeyIndex> keys = sorted_keys(p_world, config.voxel_m);
+  std::vector<std::size_t> run_begin;
+  for (std::size_t i = 0; i < keys.size(); ++i) {
+    if (i == 0 || keys[i].first != keys[i - 1].first) run_begin.push_back(i);
+  }
+  run_begin.push_back(keys.size());
+  const std::size_t runs = run_begin.size() - 1;
+  std::vector<std::vector<LocalPlane>> per_run(runs);
+  const double voxel = config.voxel_m;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs, 64), [&](const auto& r) {
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      KeyIndex* b = keys.data() + run_begin[k];
+      KeyIndex* e = keys.data() + run_begin[k + 1];
+      if (e - b < config.min_points) continue;
+      const Vec3f& p = p_world[b->second];
+      const Vec3 center((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel,
+                        (std::floor(p.z() / voxel) + 0.5) * voxel);
+      fit_cell(p_world, b, e, center, voxel, config, static_cast<std::uint32_t>(run_begin[k]), per_run[k]);
+    }
+  });
+  LocalPlanes out;
+  out.point_index.resize(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) out.point_index[i] = keys[i].second;
+  for (auto& v : per_run) out.planes.insert(out.planes.end(), v.begin(), v.end());
+  return out;
+}
+
+PlaneThickness plane_thickness(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config) {
+  const LocalPlanes lp = fit_local_planes(p_world, config);
+  PlaneThickness out;
+  double sum = 0.0;
+  for (const LocalPlane& p : lp.planes) {
+    out.points += p.count;
+    sum += p.count * p.lambda_min;
+  }
+  out.planes = lp.planes.size();
+  out.rms_m = out.points > 0 ? std::sqrt(sum / static_cast<double>(out.points)) : 0.0;
+  return out;
+}
+
+}  // namespace insalign
