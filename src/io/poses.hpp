@@ -21,7 +21,7 @@ struct PoseFile {
   std::vector<double> t_s;               ///< per pose; NaN where an OpenCalib name is not a time
   std::vector<Iso3> T_world_ins;
   std::vector<std::size_t> line;         ///< 1-based source line of each pose (for messages)
-  std::size_t reorthonormalised = 0;     ///< rotations off by more than 1e-9 but within 1e-3, fixed
+  std::size_t reorthonormalised = 0;     ///< rotations off by more than 1e-6 (more than print rounding) but within 1e-3, fixed
 };
 
 /// Reads either format (detected from the first data line: a numeric first token followed by

@@ -1,0 +1,557 @@
+#include "io/pcd.hpp"
+
+#include <lzf.h>
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <fmt/format.h>
+#include <limits>
+#include <stdexcept>
+#include <string_view>
+
+#include "core/errors.hpp"
+#include "io/atomic_file.hpp"
+
+namespace insalign::io {
+
+namespace {
+
+// Guards against headers that would make us allocate absurd amounts before noticing the lie.
+constexpr std::size_t kMaxPoints = std::size_t{1} << 31;
+constexpr int kMaxCount = 1 << 16;
+constexpr std::size_t kHeaderProbeBytes = 64 * 1024;
+
+std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
+std::string at_byte(std::size_t byte) { return "byte " + std::to_string(byte); }
+
+std::vector<std::string_view> split_ws(std::string_view s) {
+  std::vector<std::string_view> out;
+  std::size_t i = 0;
+  while (i < s.size()) {
+    while (i < s.size() && (s[i] == ' ' || s[i] == '\t' || s[i] == '\r')) ++i;
+    std::size_t j = i;
+    while (j < s.size() && s[j] != ' ' && s[j] != '\t' && s[j] != '\r') ++j;
+    if (j > i) out.push_back(s.substr(i, j - i));
+    i = j;
+  }
+  return out;
+}
+
+std::string upper(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+  return out;
+}
+
+std::string lower(std::string_view s) {
+  std::string out(s);
+  for (char& c : out) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out;
+}
+
+bool parse_size(std::string_view s, std::size_t& out) {
+  const char* end = s.data() + s.size();
+  auto [ptr, ec] = std::from_chars(s.data(), end, out);
+  return ec == std::errc() && ptr == end;
+}
+
+bool parse_int(std::string_view s, int& out) {
+  const char* end = s.data() + s.size();
+  auto [ptr, ec] = std::from_chars(s.data(), end, out);
+  return ec == std::errc() && ptr == end;
+}
+
+// Reads the whole file (or its first `limit` bytes). Throws InputError if it cannot.
+std::string read_bytes(const std::filesystem::path& path, std::size_t limit) {
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    throw InputError(path.string(), "", std::filesystem::exists(path, ec) ? "not a regular file" : "file not found");
+  }
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (f == nullptr) throw InputError(path.string(), "", std::string("cannot open: ") + std::strerror(errno));
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  const std::size_t want = ec ? limit : static_cast<std::size_t>(std::min<std::uintmax_t>(size, limit));
+  std::string buf(want, '\0');
+  const std::size_t got = std::fread(buf.data(), 1, want, f);
+  std::fclose(f);
+  buf.resize(got);
+  return buf;
+}
+
+PcdHeader parse_header(std::string_view buf, const std::string& file) {
+  PcdHeader h;
+  std::vector<std::string> names;
+  std::vector<int> sizes, counts;
+  std::vector<char> types;
+  bool have_width = false, have_height = false, have_points = false, have_data = false;
+  std::size_t points_line = 0, fields_line = 0;
+  std::size_t pos = 0, line_no = 0;
+  while (pos < buf.size() && !have_data) {
+    std::size_t nl = buf.find('\n', pos);
+    const bool last = nl == std::string_view::npos;
+    if (last) nl = buf.size();
+    const std::string_view line = buf.substr(pos, nl - pos);
+    ++line_no;
+    pos = last ? buf.size() : nl + 1;
+    // A header line is short text; a NUL or other binary here means the header is cut off.
+    for (char c : line) {
+      if (c == '\0') throw InputError(file, at_line(line_no), "binary data inside the header (truncated or not a PCD)");
+    }
+    const auto tok = split_ws(line);
+    if (tok.empty() || tok[0].front() == '#') continue;
+    const std::string key = upper(tok[0]);
+    const auto values = std::vector<std::string_view>(tok.begin() + 1, tok.end());
+    const auto need_values = [&] {
+      if (values.empty()) throw InputError(file, at_line(line_no), key + " has no values");
+    };
+    if (key == "VERSION" || key == "VIEWPOINT") {
+      continue;
+    } else if (key == "FIELDS" || key == "COLUMNS") {
+      need_values();
+      fields_line = line_no;
+      for (auto v : values) names.emplace_back(v);
+    } else if (key == "SIZE") {
+      need_values();
+      for (auto v : values) {
+        int s = 0;
+        if (!parse_int(v, s) || (s != 1 && s != 2 && s != 4 && s != 8)) {
+          throw InputError(file, at_line(line_no), "SIZE must be 1, 2, 4 or 8, got '" + std::string(v) + "'");
+        }
+        sizes.push_back(s);
+      }
+    } else if (key == "TYPE") {
+      need_values();
+      for (auto v : values) {
+        const char t = v.size() == 1 ? static_cast<char>(std::toupper(static_cast<unsigned char>(v[0]))) : '?';
+        if (t != 'F' && t != 'U' && t != 'I') {
+          throw InputError(file, at_line(line_no), "TYPE must be F, U or I, got '" + std::string(v) + "'");
+        }
+        types.push_back(t);
+      }
+    } else if (key == "COUNT") {
+      need_values();
+      for (auto v : values) {
+        int c = 0;
+        if (!parse_int(v, c) || c < 1 || c > kMaxCount) {
+          throw InputError(file, at_line(line_no), "COUNT must be a positive integer, got '" + std::string(v) + "'");
+        }
+        counts.push_back(c);
+      }
+    } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
+      std::size_t n = 0;
+      if (values.size() != 1 || !parse_size(values[0], n) || n > kMaxPoints) {
+        throw InputError(file, at_line(line_no), key + " must be one non-negative integer");
+      }
+      if (key == "WIDTH") h.width = n, have_width = true;
+      if (key == "HEIGHT") h.height = n, have_height = true;
+      if (key == "POINTS") h.points = n, have_points = true, points_line = line_no;
+    } else if (key == "DATA") {
+      if (values.size() != 1) throw InputError(file, at_line(line_no), "DATA needs exactly one value");
+      h.data = lower(values[0]);
+      if (h.data != "ascii" && h.data != "binary" && h.data != "binary_compressed") {
+        throw InputError(file, at_line(line_no),
+                         "DATA must be ascii, binary or binary_compressed, got '" + std::string(values[0]) + "'");
+      }
+      have_data = true;
+    } else {
+      throw InputError(file, at_line(line_no), "unknown header key '" + std::string(tok[0]) + "' (not a PCD file?)");
+    }
+  }
+  if (!have_data) {
+    throw InputError(file, at_line(line_no), "header ends without a DATA line (truncated or not a PCD file)");
+  }
+  h.header_bytes = pos;
+  h.header_lines = line_no;
+  if (names.empty()) throw InputError(file, at_line(line_no), "header has no FIELDS line");
+  if (counts.empty()) counts.assign(names.size(), 1);
+  if (sizes.size() != names.size() || types.size() != names.size() || counts.size() != names.size()) {
+    throw InputError(file, at_line(fields_line),
+                     fmt::format("FIELDS has {} entries but SIZE has {}, TYPE {}, COUNT {}", names.size(),
+                                 sizes.size(), types.size(), counts.size()));
+  }
+  std::size_t offset = 0;
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    if (types[i] == 'F' && sizes[i] != 4 && sizes[i] != 8) {
+      throw InputError(file, at_line(fields_line), "field '" + names[i] + "' is a float of size " +
+                                                       std::to_string(sizes[i]) + " (must be 4 or 8)");
+    }
+    h.fields.push_back({names[i], sizes[i], types[i], counts[i], offset});
+    offset += static_cast<std::size_t>(sizes[i]) * static_cast<std::size_t>(counts[i]);
+  }
+  h.point_bytes = offset;
+  for (const char* axis : {"x", "y", "z"}) {
+    const PcdHeader::Field* f = h.find(axis);
+    if (f == nullptr) throw InputError(file, at_line(fields_line), std::string("no '") + axis + "' field");
+    if (f->count != 1) throw InputError(file, at_line(fields_line), std::string("field '") + axis + "' has COUNT > 1");
+  }
+  if (!have_points) {
+    if (!have_width) throw InputError(file, at_line(line_no), "header has neither POINTS nor WIDTH");
+    h.points = h.width * (have_height ? h.height : 1);
+    if (h.points > kMaxPoints) throw InputError(file, at_line(line_no), "WIDTH x HEIGHT is implausibly large");
+  } else if (have_width && have_height && h.width * h.height != h.points) {
+    throw InputError(file, at_line(points_line),
+                     fmt::format("POINTS {} disagrees with WIDTH {} x HEIGHT {}", h.points, h.width, h.height));
+  }
+  if (!have_width) h.width = h.points;
+  if (!have_height) h.height = 1;
+  return h;
+}
+
+// One numeric element of a field, as a double.
+inline double load_element(const char* p, char type, int size) {
+  switch (size) {
+    case 1:
+      return type == 'I' ? static_cast<double>(static_cast<std::int8_t>(*p)) : static_cast<double>(static_cast<std::uint8_t>(*p));
+    case 2: {
+      if (type == 'I') {
+        std::int16_t v;
+        std::memcpy(&v, p, 2);
+        return v;
+      }
+      std::uint16_t v;
+      std::memcpy(&v, p, 2);
+      return v;
+    }
+    case 4: {
+      if (type == 'F') {
+        float v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      if (type == 'I') {
+        std::int32_t v;
+        std::memcpy(&v, p, 4);
+        return v;
+      }
+      std::uint32_t v;
+      std::memcpy(&v, p, 4);
+      return v;
+    }
+    default: {
+      if (type == 'F') {
+        double v;
+        std::memcpy(&v, p, 8);
+        return v;
+      }
+      if (type == 'I') {
+        std::int64_t v;
+        std::memcpy(&v, p, 8);
+        return static_cast<double>(v);
+      }
+      std::uint64_t v;
+      std::memcpy(&v, p, 8);
+      return static_cast<double>(v);
+    }
+  }
+}
+
+// Where each field we use sits, and how to step from one point to the next: `stride` is the
+// point size for binary (array of structs) and the element size for binary_compressed (one
+// contiguous block per field).
+struct Column {
+  const PcdHeader::Field* field = nullptr;
+  const char* base = nullptr;
+  std::size_t stride = 0;
+  double at(std::size_t i) const { return load_element(base + i * stride, field->type, field->size); }
+};
+
+enum class TimeKind { kNone, kAbsolute, kRelativeS, kRelativeNs };
+
+struct Layout {
+  const PcdHeader::Field *x, *y, *z, *intensity, *ring, *time;
+  TimeKind time_kind = TimeKind::kNone;
+};
+
+Layout layout_of(const PcdHeader& h) {
+  Layout l{h.find("x"), h.find("y"), h.find("z"), h.find("intensity"), h.find("ring"), nullptr};
+  if (l.intensity != nullptr && l.intensity->count != 1) l.intensity = nullptr;
+  if (l.ring != nullptr && l.ring->count != 1) l.ring = nullptr;
+  const std::pair<const char*, TimeKind> candidates[] = {
+      {"timestamp", TimeKind::kAbsolute}, {"time", TimeKind::kRelativeS}, {"t", TimeKind::kRelativeNs}};
+  for (const auto& [name, kind] : candidates) {
+    const PcdHeader::Field* f = h.find(name);
+    if (f != nullptr && f->count == 1) {
+      l.time = f;
+      l.time_kind = kind;
+      break;
+    }
+  }
+  return l;
+}
+
+// Fills the sweep from per-point values, dropping non-finite points, and sets the times.
+template <typename Get>
+void fill_sweep(Sweep& sweep, std::size_t n, const Layout& l, Get&& get, PcdInfo& info) {
+  sweep.p_lidar.reserve(n);
+  if (l.intensity) sweep.intensity.reserve(n);
+  if (l.ring) sweep.ring.reserve(n);
+  std::vector<double> t;
+  if (l.time) t.reserve(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const double x = get(l.x, i), y = get(l.y, i), z = get(l.z, i);
+    const double ti = l.time ? get(l.time, i) : 0.0;
+    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(ti)) {
+      ++info.dropped_nonfinite;
+      continue;
+    }
+    sweep.p_lidar.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
+    if (l.intensity) sweep.intensity.push_back(static_cast<float>(get(l.intensity, i)));
+    if (l.ring) {
+      const double r = get(l.ring, i);
+      sweep.ring.push_back(static_cast<std::uint16_t>(std::clamp(r, 0.0, 65535.0)));
+    }
+    if (l.time) t.push_back(l.time_kind == TimeKind::kRelativeNs ? ti * 1e-9 : ti);
+  }
+  sweep.t_end_s = std::numeric_limits<double>::quiet_NaN();
+  if (!l.time || t.empty()) return;
+  const double t_max = *std::max_element(t.begin(), t.end());
+  sweep.dt_s.resize(t.size());
+  for (std::size_t i = 0; i < t.size(); ++i) sweep.dt_s[i] = static_cast<float>(t[i] - t_max);
+  if (l.time_kind == TimeKind::kAbsolute) sweep.t_end_s = t_max;
+}
+
+void read_ascii(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file, PcdInfo& info) {
+  // Parse every line into a row of doubles (one per element), then reuse fill_sweep.
+  std::size_t elements = 0;
+  std::vector<std::size_t> first_element(h.fields.size());
+  for (std::size_t f = 0; f < h.fields.size(); ++f) {
+    first_element[f] = elements;
+    elements += static_cast<std::size_t>(h.fields[f].count);
+  }
+  std::vector<double> values;
+  values.reserve(std::min(h.points, data.size() / 2 + 1) * elements);
+  std::size_t pos = 0, line_no = h.header_lines, rows = 0;
+  while (pos < data.size()) {
+    std::size_t nl = data.find('\n', pos);
+    if (nl == std::string_view::npos) nl = data.size();
+    const std::string_view line = data.substr(pos, nl - pos);
+    pos = nl + 1;
+    ++line_no;
+    const auto tok = split_ws(line);
+    if (tok.empty()) continue;
+    if (rows == h.points) {
+      throw InputError(file, at_line(line_no), fmt::format("more data lines than POINTS {}", h.points));
+    }
+    if (tok.size() != elements) {
+      throw InputError(file, at_line(line_no), fmt::format("expected {} values, found {}", elements, tok.size()));
+    }
+    for (std::string_view v : tok) {
+      double d = 0.0;
+      const char* end = v.data() + v.size();
+      auto [ptr, ec] = std::from_chars(v.data(), end, d);
+      if (ec == std::errc::result_out_of_range) {
+        d = std::numeric_limits<double>::infinity();  // dropped as non-finite
+      } else if (ec != std::errc() || ptr != end) {
+        throw InputError(file, at_line(line_no), "not a number: '" + std::string(v) + "'");
+      }
+      values.push_back(d);
+    }
+    ++rows;
+  }
+  if (rows != h.points) {
+    throw InputError(file, at_line(line_no),
+                     fmt::format("truncated: POINTS says {} but the file has {} data lines", h.points, rows));
+  }
+  const Layout l = layout_of(h);
+  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
+    return values[i * elements + first_element[static_cast<std::size_t>(f - h.fields.data())]];
+  };
+  fill_sweep(sweep, rows, l, get, info);
+}
+
+void read_binary(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file,
+                 PcdInfo& info) {
+  const std::size_t need = h.points * h.point_bytes;
+  if (data.size() < need) {
+    throw InputError(file, at_byte(h.header_bytes + data.size()),
+                     fmt::format("truncated: {} points of {} bytes need {} data bytes, the file has {}", h.points,
+                                 h.point_bytes, need, data.size()));
+  }
+  const Layout l = layout_of(h);
+  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
+    return load_element(data.data() + i * h.point_bytes + f->offset, f->type, f->size);
+  };
+  fill_sweep(sweep, h.points, l, get, info);
+}
+
+void read_binary_compressed(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file,
+                            PcdInfo& info) {
+  if (data.size() < 8) {
+    throw InputError(file, at_byte(h.header_bytes + data.size()), "truncated: missing the compressed-size words");
+  }
+  std::uint32_t compressed = 0, uncompressed = 0;
+  std::memcpy(&compressed, data.data(), 4);
+  std::memcpy(&uncompressed, data.data() + 4, 4);
+  const std::size_t need = h.points * h.point_bytes;
+  if (uncompressed != need) {
+    throw InputError(file, at_byte(h.header_bytes + 4),
+                     fmt::format("uncompressed size {} does not match {} points of {} bytes ({})", uncompressed,
+                                 h.points, h.point_bytes, need));
+  }
+  if (compressed > data.size() - 8) {
+    throw InputError(file, at_byte(h.header_bytes + data.size()),
+                     fmt::format("truncated: compressed block of {} bytes, only {} in the file", compressed,
+                                 data.size() - 8));
+  }
+  std::string raw(need, '\0');
+  if (need > 0) {
+    const unsigned int got = lzf_decompress(data.data() + 8, compressed, raw.data(), static_cast<unsigned int>(need));
+    if (got != need) {
+      throw InputError(file, at_byte(h.header_bytes + 8),
+                       fmt::format("corrupt LZF block: decompressed {} of {} bytes", got, need));
+    }
+  }
+  // binary_compressed stores one block per field: field f starts at points * offset(f).
+  const Layout l = layout_of(h);
+  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
+    const std::size_t elem = static_cast<std::size_t>(f->size) * static_cast<std::size_t>(f->count);
+    return load_element(raw.data() + h.points * f->offset + i * elem, f->type, f->size);
+  };
+  fill_sweep(sweep, h.points, l, get, info);
+}
+
+}  // namespace
+
+const PcdHeader::Field* PcdHeader::find(const std::string& name) const {
+  for (const Field& f : fields) {
+    if (f.name == name) return &f;
+  }
+  return nullptr;
+}
+
+PcdHeader read_pcd_header(const std::filesystem::path& path) {
+  const std::string buf = read_bytes(path, kHeaderProbeBytes);
+  return parse_header(buf, path.string());
+}
+
+Sweep read_pcd(const std::filesystem::path& path, PcdInfo* info_out) {
+  const std::string file = path.string();
+  const std::string buf = read_bytes(path, std::numeric_limits<std::size_t>::max());
+  const PcdHeader h = parse_header(std::string_view(buf).substr(0, std::min(buf.size(), kHeaderProbeBytes)), file);
+  const std::string_view data = std::string_view(buf).substr(h.header_bytes);
+  PcdInfo info;
+  info.points = h.points;
+  info.data_encoding = h.data;
+  Sweep sweep;
+  sweep.name = path.stem().string();
+  if (h.data == "ascii") {
+    read_ascii(sweep, h, data, file, info);
+  } else if (h.data == "binary") {
+    read_binary(sweep, h, data, file, info);
+  } else {
+    read_binary_compressed(sweep, h, data, file, info);
+  }
+  const Layout l = layout_of(h);
+  info.time_field = l.time ? l.time->name : "";
+  if (info_out) *info_out = info;
+  return sweep;
+}
+
+void write_pcd(const std::filesystem::path& path, const Sweep& sweep, PcdEncoding encoding,
+               PcdTimeField time_field) {
+  const std::size_t n = sweep.size();
+  const bool has_intensity = !sweep.intensity.empty();
+  const bool has_ring = !sweep.ring.empty();
+  if ((has_intensity && sweep.intensity.size() != n) || (has_ring && sweep.ring.size() != n) ||
+      (sweep.has_time() && sweep.dt_s.size() != n)) {
+    throw std::invalid_argument("write_pcd: per-point arrays of sweep '" + sweep.name + "' differ in length");
+  }
+  if (!sweep.has_time()) time_field = PcdTimeField::kNone;
+  if (time_field == PcdTimeField::kAbsolute && !std::isfinite(sweep.t_end_s)) {
+    throw std::invalid_argument("write_pcd: absolute timestamps need a finite t_end_s (sweep '" + sweep.name + "')");
+  }
+
+  struct OutField {
+    const char* name;
+    int size;
+    char type;
+  };
+  std::vector<OutField> fields = {{"x", 4, 'F'}, {"y", 4, 'F'}, {"z", 4, 'F'}};
+  if (has_intensity) fields.push_back({"intensity", 4, 'F'});
+  if (has_ring) fields.push_back({"ring", 2, 'U'});
+  if (time_field == PcdTimeField::kAbsolute) fields.push_back({"timestamp", 8, 'F'});
+  if (time_field == PcdTimeField::kRelative) fields.push_back({"time", 4, 'F'});
+
+  std::string out = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
+  for (const auto& f : fields) fmt::format_to(std::back_inserter(out), " {}", f.name);
+  out += "\nSIZE";
+  for (const auto& f : fields) fmt::format_to(std::back_inserter(out), " {}", f.size);
+  out += "\nTYPE";
+  for (const auto& f : fields) fmt::format_to(std::back_inserter(out), " {}", f.type);
+  out += "\nCOUNT";
+  for (std::size_t i = 0; i < fields.size(); ++i) out += " 1";
+  const char* data_name = encoding == PcdEncoding::kAscii    ? "ascii"
+                          : encoding == PcdEncoding::kBinary ? "binary"
+                                                             : "binary_compressed";
+  out += fmt::format("\nWIDTH {}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {}\n", n, n, data_name);
+
+  // Writes field k of point i at dst.
+  auto put = [&](std::size_t k, std::size_t i, char* dst) {
+    const std::string_view name = fields[k].name;
+    if (k < 3) {
+      const float v = sweep.p_lidar[i][static_cast<Eigen::Index>(k)];
+      std::memcpy(dst, &v, 4);
+    } else if (name == "intensity") {
+      std::memcpy(dst, &sweep.intensity[i], 4);
+    } else if (name == "ring") {
+      std::memcpy(dst, &sweep.ring[i], 2);
+    } else if (name == "timestamp") {
+      const double v = sweep.t_end_s + static_cast<double>(sweep.dt_s[i]);
+      std::memcpy(dst, &v, 8);
+    } else {
+      std::memcpy(dst, &sweep.dt_s[i], 4);
+    }
+  };
+
+  if (encoding == PcdEncoding::kAscii) {
+    auto it = std::back_inserter(out);
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3f& p = sweep.p_lidar[i];
+      fmt::format_to(it, "{} {} {}", p.x(), p.y(), p.z());
+      if (has_intensity) fmt::format_to(it, " {}", sweep.intensity[i]);
+      if (has_ring) fmt::format_to(it, " {}", sweep.ring[i]);
+      if (time_field == PcdTimeField::kAbsolute) fmt::format_to(it, " {}", sweep.t_end_s + double(sweep.dt_s[i]));
+      if (time_field == PcdTimeField::kRelative) fmt::format_to(it, " {}", sweep.dt_s[i]);
+      out += '\n';
+    }
+  } else {
+    std::size_t point_bytes = 0;
+    for (const auto& f : fields) point_bytes += static_cast<std::size_t>(f.size);
+    std::string raw(n * point_bytes, '\0');
+    if (encoding == PcdEncoding::kBinary) {
+      for (std::size_t i = 0; i < n; ++i) {
+        std::size_t off = i * point_bytes;
+        for (std::size_t k = 0; k < fields.size(); ++k) {
+          put(k, i, raw.data() + off);
+          off += static_cast<std::size_t>(fields[k].size);
+        }
+      }
+      out += raw;
+    } else {
+      std::size_t block = 0;
+      for (std::size_t k = 0; k < fields.size(); ++k) {
+        const std::size_t size = static_cast<std::size_t>(fields[k].size);
+        for (std::size_t i = 0; i < n; ++i) put(k, i, raw.data() + block + i * size);
+        block += n * size;
+      }
+      // LZF can expand incompressible input slightly; leave room for that.
+      std::string packed(raw.size() + raw.size() / 16 + 64, '\0');
+      unsigned int packed_size = 0;
+      if (!raw.empty()) {
+        packed_size = lzf_compress(raw.data(), static_cast<unsigned int>(raw.size()), packed.data(),
+                                   static_cast<unsigned int>(packed.size()));
+        if (packed_size == 0) throw std::runtime_error("write_pcd: LZF compression failed for " + path.string());
+      }
+      const std::uint32_t sizes[2] = {packed_size, static_cast<std::uint32_t>(raw.size())};
+      out.append(reinterpret_cast<const char*>(sizes), 8);
+      out.append(packed.data(), packed_size);
+    }
+  }
+  write_file_atomic(path, out);
+}
+
+}  // namespace insalign::io
