@@ -79,6 +79,7 @@ struct GlobalInitResult {
   double ground_normal_spread_deg = 0.0;     ///< RMS angle of per-frame normals about the mean
   double coarse_yaw_deg = 0.0;               ///< best yaw of the crispness search
   int hand_eye_pairs_used = 0;
+  bool lever_arm_observed = false;           ///< false: no turns, t_xy is a guess (zero)
   double hand_eye_rms_m = 0.0;
   int frames_loaded = 0;
 };
@@ -113,7 +114,8 @@ struct PlanarHandEyeResult {
   Eigen::Vector2d t_xy_m = Eigen::Vector2d::Zero();
   std::vector<bool> inlier;
   double rms_m = 0.0;
-  bool valid = false;    ///< false: too few pairs or degenerate (no turns: x, y unobservable)
+  bool valid = false;    ///< false: too few usable pairs
+  bool lever_arm_observed = false;  ///< false: no turns among the inliers, t_xy left at zero
 };
 /// Solve (R_A - I) t_X + t_A = Rz(yaw) t_B in x, y by linear least squares in (tx, ty, cos, sin),
 /// with t_X's z fixed to tz_m; drops pairs whose turn angles disagree or whose residual is large.
