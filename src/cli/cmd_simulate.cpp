@@ -1,16 +1,295 @@
-#include "cli/commands.hpp"
-
+// insalign simulate: render a synthetic calibration drive with ground truth into a dataset in the
+// OpenCalib layout (CONVENTIONS.md), frame by frame so memory stays bounded.
 #include <fmt/core.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <thread>
+
+#include "cli/commands.hpp"
+#include "core/errors.hpp"
+#include "io/atomic_file.hpp"
+#include "io/extrinsic_json.hpp"
+#include "io/fiducials.hpp"
+#include "io/pcd.hpp"
+#include "io/poses.hpp"
+#include "sim/simulate.hpp"
 
 namespace insalign::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct SimulateOptions {
+  std::string out;
+  std::string scene = "intersection";
+  std::string trajectory = "figure8";
+  std::string ins_axes = "x-forward";
+  std::string extrinsic;
+  std::string pcd_encoding = "binary_compressed";
+  int frames = 0;
+  bool overwrite = false;
+  bool quiet = false;
+  sim::SimConfig config;
+};
+
+/// Thrown for option values CLI11 cannot check on its own; reported with exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+Iso3 parse_extrinsic(const std::string& text) {
+  std::istringstream in(text);
+  double v[6];
+  for (double& x : v) {
+    if (!(in >> x) || !std::isfinite(x))
+      throw UsageError("--extrinsic needs six numbers \"x y z roll pitch yaw\" (m, deg), got \"" + text + "\"");
+  }
+  std::string rest;
+  if (in >> rest) throw UsageError("--extrinsic needs exactly six numbers, got \"" + text + "\"");
+  return make_transform(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
+}
+
+void apply_options(SimulateOptions& o) {
+  sim::SimConfig& c = o.config;
+  c.scene = o.scene == "feature-poor" ? sim::SceneKind::kFeaturePoor : sim::SceneKind::kIntersection;
+  c.ins_axes = o.ins_axes == "y-forward" ? sim::InsAxes::kYForward : sim::InsAxes::kXForward;
+  if (o.trajectory == "figure8") {
+    c.trajectory = sim::TrajectoryKind::kFigure8;
+  } else if (o.trajectory == "straight") {
+    c.trajectory = sim::TrajectoryKind::kStraight;
+  } else if (o.trajectory == "standstill") {
+    c.trajectory = sim::TrajectoryKind::kStandstill;
+  } else {
+    c.trajectory = sim::TrajectoryKind::kRecorded;
+    if (!fs::is_regular_file(o.trajectory))
+      throw UsageError("--trajectory \"" + o.trajectory +
+                       "\" is neither figure8, straight, standstill nor an existing pose file");
+    const io::PoseFile file = io::read_pose_file(o.trajectory);
+    bool timed = true;
+    for (double t : file.t_s) timed = timed && std::isfinite(t);
+    for (std::size_t i = 0; i < file.T_world_ins.size(); ++i) {
+      // Frame names that are not times: the OpenCalib sample's 10 Hz.
+      const double t = timed ? file.t_s[i] : 0.1 * static_cast<double>(i);
+      if (!c.recorded_trajectory.empty() && !(t > c.recorded_trajectory.back().t_s))
+        throw InputError(o.trajectory, "line " + std::to_string(file.line[i]), "pose times are not increasing");
+      c.recorded_trajectory.push_back({t, file.T_world_ins[i]});
+    }
+    if (c.recorded_trajectory.size() < 2) throw InputError(o.trajectory, "", "needs at least 2 poses");
+  }
+  if (!o.extrinsic.empty()) c.T_ins_lidar = parse_extrinsic(o.extrinsic);
+  if (o.frames > 0) c.duration_s = o.frames / c.frame_rate_hz;
+}
+
+const char* scene_name(sim::SceneKind k) { return k == sim::SceneKind::kFeaturePoor ? "feature-poor" : "intersection"; }
+const char* trajectory_name(sim::TrajectoryKind k) {
+  switch (k) {
+    case sim::TrajectoryKind::kFigure8: return "figure8";
+    case sim::TrajectoryKind::kStraight: return "straight";
+    case sim::TrajectoryKind::kStandstill: return "standstill";
+    case sim::TrajectoryKind::kRecorded: return "recorded";
+  }
+  return "?";
+}
+
+nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, std::size_t points) {
+  const sim::SimConfig& c = w.config;
+  const Iso3& T = w.T_ins_lidar_true;
+  const Eigen::Quaterniond q(T.linear());
+  const Vec3 rpy = rpy_from_rotation(T.linear()) * kDegPerRad;
+  const ExtrinsicError init_err = extrinsic_error(w.T_ins_lidar_init, T);
+  nlohmann::json j;
+  j["T_ins_lidar"] = io::transform_to_json(T);
+  j["translation_m"] = {T.translation().x(), T.translation().y(), T.translation().z()};
+  j["rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
+  j["quaternion_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
+  j["time_offset_s"] = c.time_offset_s;
+  j["ins_height_m"] = w.ins_height_m;
+  j["T_ins_lidar_init"] = io::transform_to_json(w.T_ins_lidar_init);
+  j["init_error"] = {{"angle_deg", init_err.angle_deg}, {"dt_norm_m", init_err.dt_norm_m}};
+  j["frames"] = w.frame_count();
+  j["points"] = points;
+  nlohmann::json cfg;
+  cfg["seed"] = c.seed;
+  cfg["scene"] = scene_name(c.scene);
+  cfg["trajectory"] = c.trajectory == sim::TrajectoryKind::kRecorded ? o.trajectory : trajectory_name(c.trajectory);
+  cfg["figure8_loops"] = c.figure8_loops;
+  cfg["speed_kmh"] = c.speed_kmh;
+  cfg["duration_s"] = c.duration_s;
+  cfg["lidar_model"] = c.lidar_model;
+  cfg["azimuth_step_deg"] = c.azimuth_step_deg;
+  cfg["frame_rate_hz"] = c.frame_rate_hz;
+  cfg["range_noise_m"] = c.range_noise_m;
+  cfg["dropout_prob"] = c.dropout_prob;
+  cfg["max_range_m"] = c.max_range_m;
+  cfg["ins_axes"] = c.ins_axes == sim::InsAxes::kYForward ? "y-forward" : "x-forward";
+  cfg["ins_noise_scale"] = c.ins_noise_scale;
+  cfg["time_offset_s"] = c.time_offset_s;
+  cfg["extrinsic_given"] = c.T_ins_lidar.has_value();
+  cfg["init_rot_err_deg"] = c.init_rot_err_deg;
+  cfg["init_trans_err_m"] = c.init_trans_err_m;
+  cfg["n_fiducials"] = c.n_fiducials;
+  cfg["fiducial_noise_m"] = c.fiducial_noise_m;
+  cfg["pcd_encoding"] = o.pcd_encoding;
+  j["config"] = cfg;
+  return j;
+}
+
+std::uintmax_t directory_bytes(const fs::path& dir) {
+  std::uintmax_t total = 0;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) total += e.file_size();
+  return total;
+}
+
+int run_simulate(SimulateOptions& o) {
+  try {
+    apply_options(o);
+  } catch (const UsageError& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return kExitUsage;
+  }
+  sim::World world;
+  try {
+    world = sim::build_world(o.config);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "error: {}\n", e.what());
+    return kExitUsage;
+  }
+  const fs::path out = o.out, lidar_dir = out / "lidar";
+  io::ensure_writable_dir(lidar_dir);
+  // Stale frames from an earlier run would silently join this dataset.
+  std::size_t stale = 0;
+  for (const auto& e : fs::directory_iterator(lidar_dir)) stale += e.path().extension() == ".pcd";
+  if (stale > 0 && !o.overwrite) {
+    fmt::print(stderr, "error: {} already holds {} PCD files; use an empty --out or pass --overwrite\n",
+               lidar_dir.string(), stale);
+    return kExitUsage;
+  }
+  if (stale > 0) {
+    for (const auto& e : fs::directory_iterator(lidar_dir))
+      if (e.path().extension() == ".pcd") fs::remove(e.path());
+  }
+  const io::PcdEncoding encoding = o.pcd_encoding == "ascii"    ? io::PcdEncoding::kAscii
+                                   : o.pcd_encoding == "binary" ? io::PcdEncoding::kBinary
+                                                                : io::PcdEncoding::kBinaryCompressed;
+
+  const std::size_t n = world.frame_count();
+  if (!o.quiet)
+    fmt::print(stderr, "simulating {} frames ({}, {}, {}), writing to {}\n", n, world.lidar.name,
+               scene_name(o.config.scene), trajectory_name(o.config.trajectory), out.string());
+  std::vector<double> t_end(n);
+  std::vector<std::string> names(n);
+  std::atomic<std::size_t> done{0}, points{0};
+  std::mutex print_mutex;
+  const auto start = std::chrono::steady_clock::now();
+  auto last_print = start - std::chrono::seconds(10);
+  // Frames in parallel (each also casts its columns in parallel); one sweep per worker in memory.
+  // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
+  // another that is ray casting.
+  tbb::task_arena arena(static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency())));
+  arena.execute([&] {
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    const Sweep sweep = sim::render_sweep(world, k);
+    io::write_pcd(lidar_dir / (sweep.name + ".pcd"), sweep, encoding, io::PcdTimeField::kAbsolute);
+    t_end[k] = sweep.t_end_s;
+    names[k] = sweep.name;
+    points += sweep.size();
+    const std::size_t d = ++done;
+    if (o.quiet) return;
+    std::lock_guard<std::mutex> lock(print_mutex);
+    const auto now = std::chrono::steady_clock::now();
+    if (d < n && now - last_print < std::chrono::milliseconds(500)) return;
+    last_print = now;
+    const double elapsed = std::chrono::duration<double>(now - start).count();
+    const double eta = d > 0 ? elapsed * static_cast<double>(n - d) / static_cast<double>(d) : 0.0;
+    fmt::print(stderr, "\r  frames {}/{}  {:.1f} s elapsed  ETA {:.0f} s   ", d, n, elapsed, eta);
+    if (d == n) fmt::print(stderr, "\n");
+  });
+  });
+
+  std::vector<Iso3> T_world_ins;
+  for (const StampedPose& p : sim::frame_poses(world, t_end)) T_world_ins.push_back(p.T_world_ins);
+  io::write_opencalib_poses(out / "poses.txt", names, T_world_ins);
+  io::write_tum_poses(out / "poses_tum.txt", sim::dense_reported_poses(world, 100.0));
+  io::write_opencalib_extrinsic(out / "init-extrinsic.json", world.T_ins_lidar_init);
+  io::write_fiducials(out / "fiducials.txt", world.fiducials);
+  io::write_file_atomic(out / "ground_truth.json", ground_truth_json(o, world, points.load()).dump(2) + "\n");
+
+  const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const Vec3 t = world.T_ins_lidar_true.translation();
+  const Vec3 rpy = rpy_from_rotation(world.T_ins_lidar_true.linear()) * kDegPerRad;
+  fmt::print("wrote {} frames ({} points, {:.1f} MB) to {} in {:.1f} s\n", n, points.load(),
+             static_cast<double>(directory_bytes(out)) / 1e6, out.string(), elapsed);
+  fmt::print("true T_ins_lidar: t = [{:.4f} {:.4f} {:.4f}] m, rpy = [{:.3f} {:.3f} {:.3f}] deg, time offset {} s\n",
+             t.x(), t.y(), t.z(), rpy.x(), rpy.y(), rpy.z(), o.config.time_offset_s);
+  return kExitOk;
+}
+
+}  // namespace
 
 Command make_simulate_command() {
+  auto o = std::make_shared<SimulateOptions>();
   Command command;
-  command.setup = [](CLI::App& app) { return app.add_subcommand("simulate", "(not implemented yet)"); };
-  command.run = [] {
-    fmt::print(stderr, "insalign simulate: not implemented yet\n");
-    return kExitOther;
+  command.setup = [o](CLI::App& app) {
+    sim::SimConfig& c = o->config;
+    CLI::App* sub = app.add_subcommand("simulate", "Simulate a calibration drive with ground truth (OpenCalib layout)");
+    sub->add_option("--out", o->out, "output dataset directory (lidar/, poses.txt, ground_truth.json, ...)")->required();
+    sub->add_option("--seed", c.seed, "random seed: scene, mount, noise")->capture_default_str();
+    sub->add_option("--scene", o->scene, "intersection | feature-poor")
+        ->check(CLI::IsMember({"intersection", "feature-poor"}))
+        ->capture_default_str();
+    sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
+        ->capture_default_str();
+    sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
+    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64")
+        ->check(CLI::IsMember(sim::lidar_model_names()))
+        ->capture_default_str();
+    sub->add_option("--azimuth-step-deg", c.azimuth_step_deg, "horizontal resolution")
+        ->check(CLI::Range(0.01, 10.0))
+        ->capture_default_str();
+    auto* frames = sub->add_option("--frames", o->frames, "number of frames (truncates the drive)")
+                       ->check(CLI::Range(1, 1000000));
+    auto* duration = sub->add_option("--duration-s", c.duration_s, "drive length in seconds (truncates the drive)")
+                         ->check(CLI::Range(0.0, 3600.0));
+    frames->excludes(duration);
+    sub->add_option("--speed-kmh", c.speed_kmh, "cruise speed")->check(CLI::Range(0.1, 120.0))->capture_default_str();
+    sub->add_option("--range-noise-m", c.range_noise_m, "range noise sigma")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+    sub->add_option("--dropout-prob", c.dropout_prob, "probability that a return is lost")
+        ->check(CLI::Range(0.0, 0.99))
+        ->capture_default_str();
+    sub->add_option("--max-range-m", c.max_range_m, "maximum range")->check(CLI::Range(5.0, 1000.0))->capture_default_str();
+    sub->add_option("--ins-axes", o->ins_axes, "INS body axes: x-forward (REP-103) | y-forward (NovAtel)")
+        ->check(CLI::IsMember({"x-forward", "y-forward"}))
+        ->capture_default_str();
+    sub->add_option("--ins-noise-scale", c.ins_noise_scale, "INS noise relative to a NovAtel-class unit (0 = perfect)")
+        ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
+    sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();
+    sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
+    sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
+        ->check(CLI::Range(0.0, 180.0))
+        ->capture_default_str();
+    sub->add_option("--init-trans-err-m", c.init_trans_err_m, "translation error of init-extrinsic.json")
+        ->check(CLI::Range(0.0, 100.0))
+        ->capture_default_str();
+    sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+    sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
+        ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))
+        ->capture_default_str();
+    sub->add_flag("--overwrite", o->overwrite, "replace PCD files already in OUT/lidar");
+    sub->add_flag("--quiet", o->quiet, "no progress on stderr");
+    return sub;
   };
+  command.run = [o] { return run_simulate(*o); };
   return command;
 }
 
