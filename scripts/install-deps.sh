@@ -7,6 +7,7 @@ packages=(
   libeigen3-dev libceres-dev libtbb-dev libnanoflann-dev
   nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libfmt-dev liblzf-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  chromium  # headless, for the report rendering test
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -29,5 +29,6 @@ Command make_calibrate_command();
 Command make_simulate_command();
 Command make_evaluate_command();
 Command make_stitch_command();
+Command make_config_command();
 
 }  // namespace insalign::cli
