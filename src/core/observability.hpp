@@ -16,17 +16,28 @@
 namespace insalign {
 
 struct ObservabilityConfig {
-  /// A DOF is determined when its standard deviation (sigma * sqrt of the diagonal of the
-  /// inverse information over the determined block) is below these. See observability.cpp for
-  /// why these values.
+  /// Test 1 (noise): a DOF's standard deviation (sigma * sqrt of the diagonal of the inverse
+  /// information over the determined block) must be below these.
   double max_stddev_trans_m = 0.01;
   double max_stddev_rot_deg = 0.05;
+  /// Test 2 (leverage; needs the residual count): changing the DOF by the accuracy target (the
+  /// others re-fitted) must move the points by at least min_shift_m RMS, or per-frame INS pose
+  /// errors, common to all points of a frame, can mimic it however many points there are.
+  double target_trans_m = 0.02;
+  double target_rot_deg = 0.1;
+  double min_shift_m = 0.002;
+  /// See observability.cpp for why these values.
 };
 
 struct DofVerdict {
   std::array<bool, 6> determined{};  ///< tx ty tz roll pitch yaw
   Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());  ///< m, rad; inf if undetermined
-  Vec6 information_eigen = Vec6::Zero();  ///< eigenvalues of the (scaled) information, ascending, m^-2 units
+  /// Eigenvalues (ascending) of the information scaled by the noise test's limits and sigma:
+  /// >= 1 means that direction passes the noise test.
+  Vec6 information_eigen = Vec6::Zero();
+  /// Per DOF: RMS point shift, metres, when the DOF moves by its accuracy target (others
+  /// re-fitted); 0 if the residual count was not given.
+  Vec6 shift_at_target_m = Vec6::Zero();
   std::string explanation;           ///< human readable: which DOFs and why
 
   bool all_determined() const;
@@ -39,6 +50,9 @@ const std::array<const char*, 6>& dof_names();
 /// Undetermined DOFs are removed greedily (largest standard deviation first) until the rest
 /// all meet the thresholds.
 DofVerdict assess_observability(const Mat6& information, double residual_sigma_m,
+                                const ObservabilityConfig& config = {});
+/// Both tests; residual_count = the (weighted) number of point-to-plane residuals in information.
+DofVerdict assess_observability(const Mat6& information, double residual_sigma_m, double residual_count,
                                 const ObservabilityConfig& config = {});
 
 /// Throw-free: the reason the extrinsic cannot be calibrated (any DOF other than tz undetermined),

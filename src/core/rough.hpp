@@ -34,7 +34,7 @@ struct RoughConfig {
   FrameSelectionConfig frames{};     ///< which frames: 24 groups of 6 consecutive moving frames
   double min_range_m = 2.5;          ///< points nearer than this are the car body, dropped
   double max_range_m = 80.0;         ///< points farther than this are dropped (sparse, noisy)
-  double downsample_voxel_m = 0.25;  ///< per-frame voxel downsampling in the LiDAR frame, metres
+  double downsample_voxel_m = 0.4;   ///< per-frame voxel downsampling in the LiDAR frame, metres
   int max_depth = 3;                 ///< octree depth below the root voxel (min voxel = root / 8)
   double max_eigen_ratio = 0.1;      ///< plane test: smallest / middle eigenvalue below this
   std::size_t min_points_per_plane = 8;  ///< fewer points in a voxel: dropped
@@ -54,6 +54,8 @@ struct RoundLog {
   double cost = 0.0;                 ///< robust cost after the round, m^2
   std::size_t planes = 0, residuals = 0;
   int windows = 0;                   ///< frame windows registered in the round
+  double build_s = 0.0;              ///< wall time: deskew, voxelize, associate
+  double solve_s = 0.0;              ///< wall time: optimisation
 };
 
 struct RoughResult {
@@ -62,11 +64,13 @@ struct RoughResult {
   DofVerdict observability;          ///< from the final round's information over all frames used
   Mat6 information = Mat6::Zero();   ///< final J^T J (planes marginalised), m^-2 / rad^-2 units
   double residual_sigma_m = 0.0;     ///< RMS point-to-plane distance of the final round
-  double cost_before = 0.0, cost_after = 0.0;  ///< final-round association, initial vs final extrinsic
+  double cost_before = 0.0;          ///< robust cost of the first round at the initial extrinsic, m^2
+  double cost_after = 0.0;           ///< robust cost of the last round at the estimate, m^2
   std::size_t frames_used = 0, planes = 0, residuals = 0;
   int rounds = 0;
   std::vector<RoundLog> convergence;
   double wall_time_s = 0.0;
+  double load_time_s = 0.0;          ///< of which loading and reducing the frames
   std::string message;               ///< why the stage stopped early (nothing moves, no planes), else empty
 };
 
@@ -75,5 +79,30 @@ struct RoughResult {
 /// (unobservable_reason() decides whether that is fatal). Throws what the frame loader throws.
 RoughResult calibrate_rough(const Dataset& data, const Iso3& T_ins_lidar_init, const RoughConfig& config = {},
                             const std::function<void(double fraction)>& progress = {});
+
+/// The points one frame saw of one plane (the association is fixed; the plane itself is refitted
+/// to all its observations at every extrinsic).
+struct PlaneObservation {
+  std::size_t plane = 0;              ///< plane id; observations of one plane must be adjacent
+  Iso3 T_world_ins = Iso3::Identity();  ///< frame pose
+  std::vector<Vec3f> p_lidar;         ///< the frame's points (deskewed), LiDAR frame
+};
+
+/// The stage's least-squares system at an extrinsic: robust cost sum N * s^2 * log(1 + e / (N s^2))
+/// over (frame, plane) clusters with e their summed squared point-to-plane distances, the planes
+/// refitted; gradient = half the cost gradient and hessian = Gauss-Newton J^T J (weighted), both
+/// with the plane parameters eliminated, in the INS-frame perturbation of observability.hpp.
+/// Exposed so tests can check the analytic derivatives against numeric differentiation.
+struct PointPlaneSystem {
+  double cost = 0.0;
+  Vec6 gradient = Vec6::Zero();
+  Mat6 hessian = Mat6::Zero();
+  double sigma_m = 0.0;               ///< weighted RMS point-to-plane distance
+};
+PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
+                                    double robust_scale_m);
+
+/// The perturbation the stage uses: R' = exp(w) R, t' = t + rho, delta = [rho; w].
+Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta);
 
 }  // namespace insalign

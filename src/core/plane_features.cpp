@@ -1,0 +1,173 @@
+#include "core/plane_features.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <unordered_set>
+
+namespace insalign {
+namespace {
+
+struct VoxelKey {
+  std::int64_t x, y, z;
+  bool operator==(const VoxelKey&) const = default;
+  bool operator<(const VoxelKey& o) const { return std::tie(x, y, z) < std::tie(o.x, o.y, o.z); }
+};
+
+struct VoxelKeyHash {
+  std::size_t operator()(const VoxelKey& k) const {
+    // Large primes (Teschner et al. 2003 spatial hashing).
+    return static_cast<std::size_t>(k.x * 73856093LL) ^ static_cast<std::size_t>(k.y * 19349669LL) ^
+           static_cast<std::size_t>(k.z * 83492791LL);
+  }
+};
+
+VoxelKey key_of(const Vec3f& p, double inv_size) {
+  return {static_cast<std::int64_t>(std::floor(p.x() * inv_size)),
+          static_cast<std::int64_t>(std::floor(p.y() * inv_size)),
+          static_cast<std::int64_t>(std::floor(p.z() * inv_size))};
+}
+
+// 21 bits per axis: +-1M voxels, far beyond any drive at metre-sized voxels.
+std::uint64_t packed_key(const VoxelKey& k) {
+  constexpr std::int64_t kOffset = 1 << 20;
+  constexpr std::uint64_t kMask = (1u << 21) - 1;
+  return ((static_cast<std::uint64_t>(k.x + kOffset) & kMask) << 42) |
+         ((static_cast<std::uint64_t>(k.y + kOffset) & kMask) << 21) | (static_cast<std::uint64_t>(k.z + kOffset) & kMask);
+}
+
+struct Moments {
+  Vec3 mean = Vec3::Zero();
+  Mat3 cov = Mat3::Zero();
+};
+
+Moments moments_of(std::span<const Vec3f> points, std::span<const std::uint32_t> indices) {
+  Moments m;
+  Vec3 sum = Vec3::Zero();
+  Mat3 sum_sq = Mat3::Zero();
+  for (std::uint32_t i : indices) {
+    const Vec3 p = points[i].cast<double>();
+    sum += p;
+    sum_sq += p * p.transpose();
+  }
+  const double n = static_cast<double>(indices.size());
+  m.mean = sum / n;
+  m.cov = sum_sq / n - m.mean * m.mean.transpose();
+  return m;
+}
+
+void split_recursive(std::span<const Vec3f> points, std::vector<std::uint32_t> indices, const Vec3& corner,
+                     double size, int depth, const PlaneFeatureConfig& config, std::vector<Plane>& out) {
+  if (indices.size() < config.min_points) return;
+  const Moments m = moments_of(points, indices);
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(m.cov);
+  const Vec3 lambda = eig.eigenvalues().cwiseMax(0.0);  // ascending
+  const bool planar = lambda(0) < config.planarity_sigma_m * config.planarity_sigma_m &&
+                      lambda(0) < config.max_eigen_ratio * lambda(1);
+  if (planar) {
+    Plane plane;
+    plane.centre = m.mean;
+    plane.normal = eig.eigenvectors().col(0).normalized();
+    plane.thickness_m = std::sqrt(lambda(0));
+    plane.voxel_size_m = size;
+    plane.point_indices = std::move(indices);
+    out.push_back(std::move(plane));
+    return;
+  }
+  if (depth >= config.max_depth) return;
+  const double half = 0.5 * size;
+  std::array<std::vector<std::uint32_t>, 8> children;
+  const Vec3 mid = corner + Vec3::Constant(half);
+  for (std::uint32_t i : indices) {
+    const Vec3f& p = points[i];
+    const int c = (p.x() >= mid.x() ? 1 : 0) | (p.y() >= mid.y() ? 2 : 0) | (p.z() >= mid.z() ? 4 : 0);
+    children[c].push_back(i);
+  }
+  for (int c = 0; c < 8; ++c) {
+    const Vec3 child_corner = corner + Vec3((c & 1) ? half : 0.0, (c & 2) ? half : 0.0, (c & 4) ? half : 0.0);
+    split_recursive(points, std::move(children[c]), child_corner, half, depth + 1, config, out);
+  }
+}
+
+}  // namespace
+
+bool fit_plane(std::span<const Vec3f> points, std::span<const std::uint32_t> indices, Plane& plane) {
+  if (indices.size() < 3) return false;
+  const Moments m = moments_of(points, indices);
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(m.cov);
+  plane.centre = m.mean;
+  plane.normal = eig.eigenvectors().col(0).normalized();
+  plane.thickness_m = std::sqrt(std::max(0.0, eig.eigenvalues()(0)));
+  return true;
+}
+
+std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m) {
+  std::vector<std::uint32_t> kept;
+  if (voxel_m <= 0.0) {
+    kept.resize(points.size());
+    for (std::size_t i = 0; i < points.size(); ++i) kept[i] = static_cast<std::uint32_t>(i);
+    return kept;
+  }
+  const double inv = 1.0 / voxel_m;
+  // Open addressing on packed keys: several times faster than std::unordered_set per sweep.
+  std::size_t capacity = 1024;
+  while (capacity < 2 * points.size()) capacity <<= 1;
+  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::vector<std::uint64_t> table(capacity, kEmpty);
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const std::uint64_t key = packed_key(key_of(points[i], inv));
+    std::size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & (capacity - 1);
+    while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
+    if (table[slot] == kEmpty) {
+      table[slot] = key;
+      kept.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  return kept;
+}
+
+
+std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeatureConfig& config) {
+  const double inv = 1.0 / config.root_voxel_m;
+  // Sort point indices by root voxel so that the output order does not depend on hashing.
+  struct Keyed {
+    std::uint64_t key;
+    std::uint32_t index;
+    VoxelKey voxel;
+  };
+  std::vector<Keyed> keyed(points.size());
+  tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
+    const VoxelKey k = key_of(points[i], inv);
+    keyed[i] = {packed_key(k), static_cast<std::uint32_t>(i), k};
+  });
+  tbb::parallel_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
+    return a.key < b.key || (a.key == b.key && a.index < b.index);
+  });
+  std::vector<std::pair<std::size_t, std::size_t>> ranges;  // [begin, end) per root voxel
+  for (std::size_t b = 0; b < keyed.size();) {
+    std::size_t e = b + 1;
+    while (e < keyed.size() && keyed[e].key == keyed[b].key) ++e;
+    if (e - b >= config.min_points) ranges.emplace_back(b, e);
+    b = e;
+  }
+  std::vector<std::vector<Plane>> per_root(ranges.size());
+  tbb::parallel_for(std::size_t{0}, ranges.size(), [&](std::size_t r) {
+    const auto [b, e] = ranges[r];
+    std::vector<std::uint32_t> indices(e - b);
+    for (std::size_t i = b; i < e; ++i) indices[i - b] = keyed[i].index;
+    const VoxelKey& k = keyed[b].voxel;
+    const Vec3 corner = Vec3(static_cast<double>(k.x), static_cast<double>(k.y), static_cast<double>(k.z)) *
+                        config.root_voxel_m;
+    split_recursive(points, std::move(indices), corner, config.root_voxel_m, 0, config, per_root[r]);
+  });
+  std::vector<Plane> planes;
+  for (auto& v : per_root)
+    for (auto& p : v) planes.push_back(std::move(p));
+  return planes;
+}
+
+}  // namespace insalign

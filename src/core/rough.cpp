@@ -1,0 +1,457 @@
+#include "core/rough.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+#include <tbb/blocked_range.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/deskew.hpp"
+#include "core/plane_features.hpp"
+
+namespace insalign {
+
+std::vector<RoughRound> default_rough_schedule() {
+  //        window  stride  root   planar  robust  iterations
+  return {
+      {1, 1, 2.0, 0.15, 0.30, 6},   // a few consecutive frames: rotation from the travel direction
+      {1, 1, 2.0, 0.08, 0.15, 5},
+      {3, 2, 2.0, 0.08, 0.15, 5},   // about ten seconds: turns bring in x, y
+      {0, 2, 1.5, 0.05, 0.08, 4},   // whole drive: every heading
+      {0, 2, 1.0, 0.04, 0.05, 4},
+  };
+}
+
+namespace {
+
+using Mat4 = Eigen::Matrix4d;
+using Mat34 = Eigen::Matrix<double, 3, 4>;
+using Mat64 = Eigen::Matrix<double, 6, 4>;
+using Mat63 = Eigen::Matrix<double, 6, 3>;
+
+Mat3 skew(const Vec3& v) {
+  Mat3 S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Iso3 apply_update(const Iso3& T_ins_lidar, const Vec6& delta) { return perturb_in_ins_frame(T_ins_lidar, delta); }
+
+/// The points of one frame inside one plane voxel, summarised by their moments in the frame's
+/// (deskewed) LiDAR coordinates: M = sum [1; p] [1; p]^T. Point-to-plane costs and their
+/// derivatives are quadratic forms in M, so each cluster costs the same however many points it has.
+struct Cluster {
+  std::uint32_t frame = 0;
+  Mat4 M = Mat4::Zero();
+};
+
+struct Problem {
+  std::vector<Iso3> T_world_ins;       ///< per local frame, at the frame time
+  std::vector<Cluster> clusters;       ///< grouped by plane
+  std::vector<std::size_t> plane_begin;  ///< cluster ranges: [plane_begin[j], plane_begin[j+1])
+  std::size_t residuals = 0;
+  std::size_t planes() const { return plane_begin.empty() ? 0 : plane_begin.size() - 1; }
+};
+
+struct Accum {
+  Mat6 H = Mat6::Zero();
+  Vec6 g = Vec6::Zero();
+  double cost = 0.0;        ///< robust (Cauchy) cost, m^2
+  double weighted_sq = 0.0; ///< sum of weight * squared distances
+  double weighted_n = 0.0;  ///< sum of weight * points
+  Accum& operator+=(const Accum& o) {
+    H += o.H;
+    g += o.g;
+    cost += o.cost;
+    weighted_sq += o.weighted_sq;
+    weighted_n += o.weighted_n;
+    return *this;
+  }
+};
+
+/// Cost (and, if wanted, the Gauss-Newton system with the plane parameters eliminated) of the
+/// extrinsic. Each plane is refitted to its points at this extrinsic with Cauchy weights per
+/// cluster, so the cost is the point-to-plane cost minimised over the planes (BALM's eigenvalue
+/// cost), and the Schur complement gives the joint Gauss-Newton step.
+Accum evaluate(const Problem& problem, const Iso3& T_ins_lidar, double robust_scale_m, bool derivatives) {
+  const Mat3 R = T_ins_lidar.linear();
+  const Vec3 t = T_ins_lidar.translation();
+  const double s2 = robust_scale_m * robust_scale_m;
+  auto body = [&](const tbb::blocked_range<std::size_t>& range, Accum acc) {
+    std::vector<Mat3> A;
+    std::vector<Vec3> b;
+    std::vector<double> w;
+    for (std::size_t j = range.begin(); j != range.end(); ++j) {
+      const std::size_t c0 = problem.plane_begin[j], c1 = problem.plane_begin[j + 1];
+      const std::size_t nc = c1 - c0;
+      A.resize(nc);
+      b.resize(nc);
+      w.assign(nc, 1.0);
+      for (std::size_t c = 0; c < nc; ++c) {
+        const Iso3& T_wi = problem.T_world_ins[problem.clusters[c0 + c].frame];
+        A[c] = T_wi.linear() * R;
+        b[c] = T_wi.linear() * t + T_wi.translation();
+      }
+      Vec3 centre, normal, u, v;
+      std::vector<double> e(nc);  // squared distances per cluster
+      for (int pass = 0; pass < 2; ++pass) {
+        double N = 0.0;
+        Vec3 S1 = Vec3::Zero();
+        Mat3 S2 = Mat3::Zero();
+        for (std::size_t c = 0; c < nc; ++c) {
+          const Mat4& M = problem.clusters[c0 + c].M;
+          const double n = M(0, 0);
+          const Vec3 s1 = M.block<3, 1>(1, 0);
+          const Mat3 m2 = M.block<3, 3>(1, 1);
+          const Vec3 As1 = A[c] * s1;
+          N += w[c] * n;
+          S1 += w[c] * (n * b[c] + As1);
+          S2 += w[c] * (A[c] * m2 * A[c].transpose() + As1 * b[c].transpose() + b[c] * As1.transpose() +
+                        n * b[c] * b[c].transpose());
+        }
+        centre = S1 / N;
+        const Mat3 cov = S2 / N - centre * centre.transpose();
+        const Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
+        normal = eig.eigenvectors().col(0);
+        u = eig.eigenvectors().col(1);
+        v = eig.eigenvectors().col(2);
+        for (std::size_t c = 0; c < nc; ++c) {
+          Eigen::Vector4d h;
+          h << normal.dot(b[c] - centre), A[c].transpose() * normal;
+          const Mat4& M = problem.clusters[c0 + c].M;
+          e[c] = h.dot(M * h);
+          const double mean_sq = e[c] / M(0, 0);
+          w[c] = 1.0 / (1.0 + mean_sq / s2);  // Cauchy IRLS weight on the cluster's RMS distance
+        }
+      }
+      // Second pass ended with weights for the refitted plane; accumulate.
+      Mat6 Hpp = Mat6::Zero();
+      Mat63 Hpl = Mat63::Zero();
+      Mat3 Hll = Mat3::Zero();
+      Vec6 gp = Vec6::Zero();
+      Vec3 gl = Vec3::Zero();
+      for (std::size_t c = 0; c < nc; ++c) {
+        const Mat4& M = problem.clusters[c0 + c].M;
+        const double n = M(0, 0);
+        acc.cost += n * s2 * std::log1p(e[c] / (n * s2));
+        acc.weighted_sq += w[c] * e[c];
+        acc.weighted_n += w[c] * n;
+        if (!derivatives) continue;
+        const Mat3& R_wi = problem.T_world_ins[problem.clusters[c0 + c].frame].linear();
+        Eigen::Vector4d h;
+        h << normal.dot(b[c] - centre), A[c].transpose() * normal;
+        // Per point r = h^T [1; p]. Pose Jacobian (rho, w) = P [1; p], plane Jacobian = L [1; p].
+        const Vec3 m = R_wi.transpose() * normal;
+        Mat64 P = Mat64::Zero();
+        P.block<3, 1>(0, 0) = m;
+        P.block<3, 3>(3, 1) = -skew(m) * R;
+        Mat34 L = Mat34::Zero();
+        L(0, 0) = u.dot(b[c] - centre);
+        L.block<1, 3>(0, 1) = (A[c].transpose() * u).transpose();
+        L(1, 0) = v.dot(b[c] - centre);
+        L.block<1, 3>(1, 1) = (A[c].transpose() * v).transpose();
+        L(2, 0) = -1.0;
+        const Mat64 PM = w[c] * P * M;
+        const Mat34 LM = w[c] * L * M;
+        Hpp += PM * P.transpose();
+        Hpl += PM * L.transpose();
+        Hll += LM * L.transpose();
+        gp += PM * h;
+        gl += LM * h;
+      }
+      if (!derivatives) continue;
+      Hll += 1e-9 * Mat3::Identity();
+      const Eigen::LDLT<Mat3> ldlt(Hll);
+      acc.H += Hpp - Hpl * ldlt.solve(Hpl.transpose());
+      acc.g += gp - Hpl * ldlt.solve(gl);
+    }
+    return acc;
+  };
+  return tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, problem.planes(), 64), Accum{}, body,
+      [](Accum a, const Accum& b) { return a += b; });
+}
+
+
+Sweep reduce_sweep(Sweep sweep, const RoughConfig& config) {
+  const float rmin2 = static_cast<float>(config.min_range_m * config.min_range_m);
+  const float rmax2 = static_cast<float>(config.max_range_m * config.max_range_m);
+  std::vector<Vec3f> kept_points;
+  std::vector<float> kept_dt;
+  kept_points.reserve(sweep.size() / 4);
+  const bool has_time = sweep.has_time();
+  for (std::size_t i = 0; i < sweep.size(); ++i) {
+    const Vec3f& p = sweep.p_lidar[i];
+    if (!p.allFinite()) continue;
+    const float r2 = p.squaredNorm();
+    if (r2 < rmin2 || r2 > rmax2) continue;
+    kept_points.push_back(p);
+    if (has_time) kept_dt.push_back(sweep.dt_s[i]);
+  }
+  const std::vector<std::uint32_t> idx = voxel_downsample_indices(kept_points, config.downsample_voxel_m);
+  Sweep out;
+  out.name = std::move(sweep.name);
+  out.t_end_s = sweep.t_end_s;
+  out.p_lidar.reserve(idx.size());
+  for (std::uint32_t i : idx) out.p_lidar.push_back(kept_points[i]);
+  if (has_time) {
+    out.dt_s.reserve(idx.size());
+    for (std::uint32_t i : idx) out.dt_s.push_back(kept_dt[i]);
+  }
+  return out;
+}
+
+/// Builds the plane clusters of one window of frames at the current extrinsic.
+void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std::vector<Vec3f>>& p_lidar,
+                const Problem& placed, const Iso3& T_ins_lidar, const PlaneFeatureConfig& plane_config,
+                std::size_t min_frames, Problem& problem) {
+  std::vector<Vec3f> p_world;
+  std::vector<std::uint32_t> frame_of;
+  std::vector<std::uint32_t> index_in_frame;
+  for (std::uint32_t f : frames) {
+    const Eigen::Isometry3f T_world_lidar = (placed.T_world_ins[f] * T_ins_lidar).cast<float>();
+    const auto& pts = p_lidar[f];
+    for (std::size_t i = 0; i < pts.size(); ++i) {
+      p_world.push_back(T_world_lidar * pts[i]);
+      frame_of.push_back(f);
+      index_in_frame.push_back(static_cast<std::uint32_t>(i));
+    }
+  }
+  const std::vector<Plane> planes = extract_planes(p_world, plane_config);
+  for (const Plane& plane : planes) {
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> members;  // (frame, point)
+    members.reserve(plane.point_indices.size());
+    for (std::uint32_t k : plane.point_indices) members.emplace_back(frame_of[k], index_in_frame[k]);
+    std::sort(members.begin(), members.end());
+    std::vector<Cluster> clusters;
+    for (const auto& [f, i] : members) {
+      if (clusters.empty() || clusters.back().frame != f) clusters.push_back({f, Mat4::Zero()});
+      Eigen::Vector4d q;
+      q << 1.0, p_lidar[f][i].cast<double>();
+      clusters.back().M += q * q.transpose();
+    }
+    if (clusters.size() < min_frames) continue;
+    if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
+    for (auto& c : clusters) problem.clusters.push_back(c);
+    problem.plane_begin.push_back(problem.clusters.size());
+    problem.residuals += members.size();
+  }
+}
+
+}  // namespace
+
+Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta) {
+  Iso3 out = T_ins_lidar;
+  out.linear() = nearest_rotation(so3_exp(delta.tail<3>()) * T_ins_lidar.linear());
+  out.translation() = T_ins_lidar.translation() + delta.head<3>();
+  return out;
+}
+
+PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
+                                    double robust_scale_m) {
+  Problem problem;
+  for (std::size_t k = 0; k < observations.size(); ++k) {
+    const PlaneObservation& o = observations[k];
+    if (k == 0 || o.plane != observations[k - 1].plane) problem.plane_begin.push_back(problem.clusters.size());
+    problem.T_world_ins.push_back(o.T_world_ins);
+    Cluster c;
+    c.frame = static_cast<std::uint32_t>(k);
+    for (const Vec3f& p : o.p_lidar) {
+      Eigen::Vector4d q;
+      q << 1.0, p.cast<double>();
+      c.M += q * q.transpose();
+    }
+    problem.clusters.push_back(c);
+  }
+  problem.plane_begin.push_back(problem.clusters.size());
+  const Accum acc = evaluate(problem, T_ins_lidar, robust_scale_m, true);
+  PointPlaneSystem system;
+  system.cost = acc.cost;
+  system.gradient = acc.g;
+  system.hessian = acc.H;
+  system.sigma_m = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
+  return system;
+}
+
+RoughResult calibrate_rough(const Dataset& data, const Iso3& T_ins_lidar_init, const RoughConfig& config,
+                            const std::function<void(double fraction)>& progress) {
+  const auto start = std::chrono::steady_clock::now();
+  auto report = [&](double f) {
+    if (progress) progress(f);
+  };
+  RoughResult result;
+  result.T_ins_lidar = T_ins_lidar_init;
+  result.observability = assess_observability(Mat6::Zero(), 1.0, config.observability);
+
+  FrameSelectionConfig selection_config = config.frames;
+  selection_config.time_offset_s = 0.0;
+  const FrameSelection selection = select_frames(data, selection_config);
+  const std::vector<std::size_t> selected = selection.all();
+  auto finish = [&](std::string message) {
+    result.message = std::move(message);
+    result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    report(1.0);
+    return result;
+  };
+  if (selected.size() < 2) {
+    result.observability.explanation =
+        "undetermined: tx ty tz roll pitch yaw. The vehicle does not move during the frames the poses "
+        "cover (standing still): every extrinsic lines the sweeps up equally well.";
+    return finish("fewer than two moving frames");
+  }
+
+  // Load and reduce in parallel; only reduced frames are kept.
+  std::vector<Sweep> frames(selected.size());
+  tbb::parallel_for(std::size_t{0}, selected.size(), [&](std::size_t k) {
+    frames[k] = reduce_sweep(data.frames.load(selected[k]), config);
+  });
+  result.frames_used = frames.size();
+  result.load_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  report(0.3);
+
+  // Local frame index per group, for windows.
+  std::vector<std::vector<std::uint32_t>> groups;
+  {
+    std::uint32_t k = 0;
+    for (const auto& g : selection.groups) {
+      groups.emplace_back();
+      for (std::size_t n = 0; n < g.size(); ++n) groups.back().push_back(k++);
+    }
+  }
+
+  PlaceOptions place;
+  place.time_offset_s = 0.0;
+  place.per_point_time = config.deskew;
+
+  Iso3 T_ins_lidar = T_ins_lidar_init;
+  std::vector<std::vector<Vec3f>> p_lidar(frames.size());
+  Problem problem;
+  double sigma_m = 0.0;
+  double residual_count = 0.0;  // weighted
+  Mat6 information = Mat6::Zero();
+
+  // One round; tz_free allows tz to move (only when the information determines it).
+  auto run_round = [&](int round_index, const RoughRound& round, bool tz_free) {
+    const auto round_start = std::chrono::steady_clock::now();
+    const auto seconds_since = [](auto t0) {
+      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    };
+    Problem placed;
+    placed.T_world_ins.resize(frames.size());
+    tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t k) {
+      p_lidar[k] = deskew_sweep(frames[k], data.poses, T_ins_lidar, place);
+      placed.T_world_ins[k] = frame_pose(frames[k], data.poses, 0.0);
+    });
+    PlaneFeatureConfig plane_config;
+    plane_config.root_voxel_m = round.root_voxel_m;
+    plane_config.max_depth = config.max_depth;
+    plane_config.planarity_sigma_m = round.planarity_sigma_m;
+    plane_config.max_eigen_ratio = config.max_eigen_ratio;
+    plane_config.min_points = config.min_points_per_plane;
+
+    problem = Problem{};
+    problem.T_world_ins = placed.T_world_ins;
+    const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
+    const std::size_t stride = static_cast<std::size_t>(std::max(1, round.frame_stride));
+    int windows = 0;
+    for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
+      std::vector<std::uint32_t> window;
+      for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
+        for (std::size_t n = 0; n < groups[g].size(); n += (per_window == 1 ? 1 : stride)) window.push_back(groups[g][n]);
+      add_window(window, p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, problem);
+      ++windows;
+    }
+    RoundLog log;
+    log.round = round_index;
+    log.planes = problem.planes();
+    log.residuals = problem.residuals;
+    log.windows = windows;
+    log.build_s = seconds_since(round_start);
+    const auto solve_start = std::chrono::steady_clock::now();
+    if (problem.planes() == 0) {
+      log.T_ins_lidar = T_ins_lidar;
+      result.convergence.push_back(log);
+      return;
+    }
+
+    Accum acc = evaluate(problem, T_ins_lidar, round.robust_scale_m, true);
+    if (result.convergence.empty()) result.cost_before = acc.cost;
+    // Move only along directions this round's frames determine (looser than the final verdict:
+    // early rounds just must not wander along directions their short windows cannot see).
+    ObservabilityConfig loose = config.observability;
+    loose.max_stddev_trans_m *= 5.0;
+    loose.max_stddev_rot_deg *= 5.0;
+    // Noise test only: the leverage test guards the final result against INS errors, while a
+    // round must be free to move every DOF its frames see, however slightly.
+    const double sigma0 = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
+    const DofVerdict round_verdict = assess_observability(acc.H, sigma0, loose);
+    std::vector<int> free;
+    for (int i = 0; i < 6; ++i)
+      if (round_verdict.determined[i] && (i != 2 || tz_free)) free.push_back(i);
+    double lambda = 1e-3;
+    for (int it = 0; it < round.iterations && !free.empty(); ++it) {
+      const int n = static_cast<int>(free.size());
+      Eigen::MatrixXd H(n, n);
+      Eigen::VectorXd g(n);
+      for (int a = 0; a < n; ++a) {
+        g(a) = acc.g(free[a]);
+        for (int b = 0; b < n; ++b) H(a, b) = acc.H(free[a], free[b]);
+      }
+      bool accepted = false;
+      for (int attempt = 0; attempt < 6 && !accepted; ++attempt) {
+        Eigen::MatrixXd Hd = H;
+        for (int a = 0; a < n; ++a) Hd(a, a) += lambda * H(a, a) + 1e-12;
+        const Eigen::VectorXd step = Hd.ldlt().solve(-g);
+        Vec6 delta = Vec6::Zero();
+        for (int a = 0; a < n; ++a) delta(free[a]) = step(a);
+        const Iso3 candidate = apply_update(T_ins_lidar, delta);
+        const Accum trial = evaluate(problem, candidate, round.robust_scale_m, true);
+        if (trial.cost <= acc.cost) {
+          // Stop once a step gains almost nothing (the association, not the solver, limits now).
+          if (acc.cost - trial.cost < 1e-5 * acc.cost) it = round.iterations;
+          T_ins_lidar = candidate;
+          acc = trial;
+          lambda = std::max(lambda / 3.0, 1e-7);
+          accepted = true;
+          if (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-6) it = round.iterations;  // converged
+        } else {
+          lambda *= 5.0;
+        }
+      }
+      if (!accepted) break;
+    }
+    sigma_m = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
+    information = acc.H;
+    residual_count = acc.weighted_n;
+    log.T_ins_lidar = T_ins_lidar;
+    log.cost = acc.cost;
+    log.solve_s = seconds_since(solve_start);
+    result.cost_after = acc.cost;
+    result.convergence.push_back(log);
+  };
+
+  const int n_rounds = static_cast<int>(config.rounds.size());
+  for (int r = 0; r < n_rounds; ++r) {
+    run_round(r, config.rounds[r], false);
+    report(0.3 + 0.65 * (r + 1) / std::max(1, n_rounds));
+  }
+  result.observability = assess_observability(information, sigma_m, residual_count, config.observability);
+  if (!config.always_fix_tz && result.observability.determined[2] && n_rounds > 0) {
+    run_round(n_rounds, config.rounds.back(), true);
+    result.tz_estimated = true;
+    result.observability = assess_observability(information, sigma_m, residual_count, config.observability);
+  }
+  result.T_ins_lidar = T_ins_lidar;
+  result.information = information;
+  result.residual_sigma_m = sigma_m;
+  result.planes = problem.planes();
+  result.residuals = problem.residuals;
+  result.rounds = static_cast<int>(result.convergence.size());
+  return finish("");
+}
+
+}  // namespace insalign
