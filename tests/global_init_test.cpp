@@ -1,9 +1,13 @@
 // Global initialisation: its pieces on synthetic inputs, and the whole on simulated drives.
+#include <map>
+#include <mutex>
 #include <random>
 
 #include <gtest/gtest.h>
 
+#include "core/errors.hpp"
 #include "core/global_init.hpp"
+#include "sim/world_dataset.hpp"
 
 namespace insalign {
 namespace {
@@ -76,6 +80,88 @@ TEST(PlanarHandEye, StraightDrivingGivesYawButNotLeverArm) {
 TEST(OccupancyScore, CountsVoxels) {
   const std::vector<Vec3> pts = {Vec3(0.1, 0.1, 0.1), Vec3(0.2, 0.2, 0.2), Vec3(-0.1, 0.1, 0.1)};
   EXPECT_EQ(occupancy_score(pts, 0.5), 2.0);
+}
+
+// A short reduced-resolution simulated drive whose frames render lazily, once each (cached).
+struct SimDrive {
+  std::shared_ptr<const sim::World> world;
+  Dataset data;
+};
+SimDrive sim_drive(std::uint64_t seed, sim::InsAxes axes, sim::TrajectoryKind trajectory = sim::TrajectoryKind::kFigure8,
+                   double duration_s = 30.0) {
+  sim::SimConfig config;
+  config.seed = seed;
+  config.ins_axes = axes;
+  config.trajectory = trajectory;
+  config.duration_s = duration_s;
+  config.lidar_model = "hdl32";
+  config.azimuth_step_deg = 1.0;
+  SimDrive drive;
+  drive.world = std::make_shared<const sim::World>(sim::build_world(config));
+  drive.data = sim::world_dataset(drive.world);
+  auto cache = std::make_shared<std::map<std::size_t, Sweep>>();
+  auto mutex = std::make_shared<std::mutex>();
+  auto render = drive.data.frames.load;
+  drive.data.frames.load = [cache, mutex, render](std::size_t k) {
+    {
+      std::lock_guard<std::mutex> lock(*mutex);
+      if (auto it = cache->find(k); it != cache->end()) return it->second;
+    }
+    Sweep s = render(k);
+    std::lock_guard<std::mutex> lock(*mutex);
+    return cache->emplace(k, std::move(s)).first->second;
+  };
+  return drive;
+}
+
+Iso3 yawed_about_ins_z(const Iso3& T_ins_lidar, double deg) {
+  Iso3 Rz = Iso3::Identity();
+  Rz.linear() = make_transform(Vec3::Zero(), {0, 0, deg}).linear();
+  return Rz * T_ins_lidar;
+}
+
+TEST(GlobalInit, NoInitReachesStage1BasinForAnyYawAndInsAxes) {
+  for (std::uint64_t seed : {11u, 12u, 13u, 14u}) {
+    const SimDrive drive = sim_drive(seed, seed % 2 ? sim::InsAxes::kXForward : sim::InsAxes::kYForward);
+    const GlobalInitResult res = initialise_extrinsic(drive.data, std::nullopt);
+    const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, drive.world->T_ins_lidar_true);
+    EXPECT_EQ(res.source, "data");
+    EXPECT_LT(err.angle_deg, 5.0) << "seed " << seed << ": " << res.explanation;
+    EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << "seed " << seed << ": " << res.explanation;
+    EXPECT_FALSE(res.explanation.empty());
+    EXPECT_GE(res.candidates.size(), 4u);
+  }
+}
+
+TEST(GlobalInit, WrongInitIsOverriddenAndGoodInitKept) {
+  const SimDrive drive = sim_drive(21, sim::InsAxes::kYForward);
+  const Iso3 T_true = drive.world->T_ins_lidar_true;
+  const struct { const char* what; Iso3 T_init; } wrong[] = {
+      {"yaw off by 180 deg", yawed_about_ins_z(T_true, 180.0)},
+      {"x and y swapped (INS axis convention mixed up)", yawed_about_ins_z(T_true, -90.0)},
+  };
+  for (const auto& w : wrong) {
+    const GlobalInitResult res = initialise_extrinsic(drive.data, w.T_init);
+    const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, T_true);
+    EXPECT_EQ(res.source, "data-overrides-init") << w.what << ": " << res.explanation;
+    EXPECT_LT(err.angle_deg, 5.0) << w.what;
+    EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << w.what;
+  }
+  // The simulator's guess: 20 deg and 0.5 m off, inside stage 1's basin: kept as given.
+  const GlobalInitResult kept = initialise_extrinsic(drive.data, drive.world->T_ins_lidar_init);
+  EXPECT_EQ(kept.source, "init") << kept.explanation;
+  EXPECT_TRUE(kept.T_ins_lidar.isApprox(drive.world->T_ins_lidar_init));
+  // trust_init returns even a wrong init unchanged.
+  GlobalInitConfig trust;
+  trust.trust_init = true;
+  const GlobalInitResult trusted = initialise_extrinsic(drive.data, wrong[0].T_init, trust);
+  EXPECT_EQ(trusted.source, "init");
+  EXPECT_TRUE(trusted.T_ins_lidar.isApprox(wrong[0].T_init));
+}
+
+TEST(GlobalInit, StandstillIsUnobservable) {
+  const SimDrive drive = sim_drive(31, sim::InsAxes::kXForward, sim::TrajectoryKind::kStandstill, 3.0);
+  EXPECT_THROW(initialise_extrinsic(drive.data, std::nullopt), UnobservableError);
 }
 
 }  // namespace

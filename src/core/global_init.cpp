@@ -401,6 +401,7 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
     frame.ground = fit_ground_plane(to_vec3(frame.sweep.p_lidar), config, static_cast<unsigned>(frame.index + 1));
   });
   result.frames_loaded = static_cast<int>(frames.size());
+  result.load_s = elapsed();
 
   // --- 1. Levelling: mean ground normal in the LiDAR frame vs the mean INS vertical.
   std::vector<Vec3> normals;
@@ -492,6 +493,7 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
     const Frame& frame = frames[static_cast<std::size_t>(coarse_group[0][c])];
     for (std::size_t i = 0; i < frame.sweep.size(); ++i)
       if (frame.off_ground[i]) coarse_lev[c].push_back(R_lev_lidar * frame.sweep.p_lidar[i].cast<double>());
+    coarse_lev[c] = voxel_downsample(coarse_lev[c], config.coarse_voxel_m);
   }
   auto coarse_score = [&](double yaw_rad) {
     std::vector<Vec3> p_world;
@@ -520,6 +522,7 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
     coarse_yaw = wrap_pi(coarse_yaw + (best_f - n_fine) * step / n_fine);
   }
   result.coarse_yaw_deg = coarse_yaw * kDegPerRad;
+  result.coarse_s = elapsed() - result.load_s;
   const Iso3 X_coarse = make_X(coarse_yaw, Eigen::Vector2d::Zero());
 
   // --- 3. Planar hand-eye: register pairs (deskewed with the coarse extrinsic) from the INS prediction.
@@ -534,8 +537,8 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
     const Frame& fb = frames[static_cast<std::size_t>(slot_of.at(pair_pos[k].second))];
     std::vector<Vec3> target, source;
     try {
-      target = to_vec3(deskew_sweep(fa.sweep, data.poses, X_coarse));
-      source = voxel_downsample(to_vec3(deskew_sweep(fb.sweep, data.poses, X_coarse)), 2.0 * config.voxel_m);
+      target = voxel_downsample(to_vec3(deskew_sweep(fa.sweep, data.poses, X_coarse)), config.icp_target_voxel_m);
+      source = voxel_downsample(to_vec3(deskew_sweep(fb.sweep, data.poses, X_coarse)), config.icp_source_voxel_m);
     } catch (const OutOfRangeError&) {
       return;
     }
@@ -551,6 +554,7 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
   for (std::size_t k = 0; k < motions.size(); ++k)
     if (registered[k]) good.push_back(motions[k]);
   const PlanarHandEyeResult he = solve_planar_hand_eye(good, tz_insl_m, config);
+  result.hand_eye_s = elapsed() - result.load_s - result.coarse_s;
   Iso3 X_data = X_coarse;
   std::string data_how;
   if (he.valid) {
@@ -584,6 +588,7 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
     cand[k].score = score_candidate(frames, groups, data.poses, cand[k].T_ins_lidar, config.crispness_voxel_m);
   });
   result.candidates = cand;
+  result.score_s = elapsed() - result.load_s - result.coarse_s - result.hand_eye_s;
   // The best of the data's candidates (normally "data" itself).
   std::size_t best = 0;
   for (std::size_t k = 0; k < cand.size(); ++k)

@@ -46,7 +46,10 @@ struct GlobalInitConfig {
   double min_pair_turn_deg = 4.0;      ///< pairs turning less only constrain yaw (some are kept)
   double max_angle_mismatch_deg = 1.5; ///< |INS turn - LiDAR turn| above this: pair rejected
   double max_residual_m = 0.15;        ///< pairs with larger hand-eye residual are dropped, re-solved
-  ScanRegistrationConfig icp;          ///< scan-to-scan registration
+  double icp_target_voxel_m = 0.4;     ///< registration target (first frame of a pair) voxel
+  double icp_source_voxel_m = 0.8;     ///< registration source (second frame) voxel: few points suffice
+  double coarse_voxel_m = 0.6;         ///< points of the coarse yaw search are thinned to this voxel
+  ScanRegistrationConfig icp = {.max_iterations = 20};  ///< scan-to-scan registration
   // z (unobservable from planar motion).
   /// INS origin height above the ground when there are no fiducials: an INS in the trunk or cabin
   /// of a car sits about 1 m up (the NovAtel sample: trunk); stage 3 fixes z from fiducials.
@@ -56,8 +59,8 @@ struct GlobalInitConfig {
   /// The data overrides the init when the init's score (occupied voxels) exceeds the data
   /// candidate's by this factor and the two lie in different basins.
   double override_score_ratio = 1.05;
-  double same_basin_rot_deg = 20.0;    ///< closer candidates share stage 1's basin...
-  double same_basin_trans_m = 0.5;     ///< ...if also this close in translation
+  double same_basin_rot_deg = 30.0;    ///< closer candidates share stage 1's basin (~20 deg, with margin)...
+  double same_basin_trans_m = 1.0;     ///< ...if also this close in translation
   bool trust_init = false;             ///< true: return the init unchanged, no checks
 };
 
@@ -82,6 +85,7 @@ struct GlobalInitResult {
   bool lever_arm_observed = false;           ///< false: no turns, t_xy is a guess (zero)
   double hand_eye_rms_m = 0.0;
   int frames_loaded = 0;
+  double load_s = 0.0, coarse_s = 0.0, hand_eye_s = 0.0, score_s = 0.0;  ///< wall time per phase
 };
 
 /// Throws UnobservableError when the data cannot give a start (no ground plane, no motion).
