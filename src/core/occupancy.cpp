@@ -102,14 +102,20 @@ std::uint64_t voxel_key(const Vec3f& p, float inv_voxel_m) {
               static_cast<std::int64_t>(std::floor(p.z() * inv_voxel_m)));
 }
 
-std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m) {
+std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m, const Vec3f& grid_shift_m) {
   const float inv = static_cast<float>(1.0 / voxel_m);
   std::vector<std::uint64_t> keys(p_world.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, p_world.size(), 8192), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(p_world[i], inv);
+    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(p_world[i] - grid_shift_m, inv);
   });
   tbb::parallel_sort(keys.begin(), keys.end());
   return static_cast<std::size_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
+}
+
+double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m) {
+  const Vec3f half = Vec3f::Constant(static_cast<float>(0.5 * voxel_m));
+  return 0.5 * static_cast<double>(count_occupied_voxels(p_world, voxel_m) +
+                                   count_occupied_voxels(p_world, voxel_m, half));
 }
 
 std::vector<std::size_t> voxel_downsample_indices(const std::vector<Vec3f>& points, double voxel_m) {

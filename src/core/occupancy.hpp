@@ -14,8 +14,14 @@ namespace insalign {
 std::uint64_t voxel_key(const Vec3f& p, float inv_voxel_m);
 
 /// Space occupancy (the paper's measure): number of distinct voxels of edge voxel_m that hold at
-/// least one point. Parallel (TBB); the input is not modified.
-std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m);
+/// least one point, the grid shifted by grid_shift_m. Parallel (TBB); the input is not modified.
+std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m,
+                                  const Vec3f& grid_shift_m = Vec3f::Zero());
+
+/// Occupancy averaged over two grids staggered by half a voxel along the diagonal: a surface that
+/// happens to lie on a voxel boundary of one grid lies mid-voxel in the other, which removes most
+/// of the count's dependence on where the grid falls.
+double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m);
 
 /// Indices of one representative point per voxel of edge voxel_m (the first in input order), so
 /// that per-point attributes (times) can be kept alongside. Order of the result: input order.

@@ -137,9 +137,9 @@ void place_all(const Problem& p, const State& s, std::vector<Vec3f>& p_world) {
   });
 }
 
-std::size_t occupancy(const Problem& p, const State& s, double voxel_m, std::vector<Vec3f>& scratch) {
+double occupancy(const Problem& p, const State& s, double voxel_m, std::vector<Vec3f>& scratch) {
   place_all(p, s, scratch);
-  return count_occupied_voxels(scratch, voxel_m);
+  return staggered_occupancy(scratch, voxel_m);
 }
 
 // INS pose and its velocity at knots over a sweep, for the Jacobians (values come from
@@ -302,7 +302,7 @@ State grid_search(const Problem& p, const State& start, const RefineConfig& conf
                   const std::function<void(double)>& progress) {
   std::vector<Vec3f> scratch;
   State best = start;
-  double best_cost = static_cast<double>(occupancy(p, best, config.occupancy_voxel_m, scratch));
+  double best_cost = occupancy(p, best, config.occupancy_voxel_m, scratch);
   ++result.evaluations;
   result.crispness_before = best_cost;
   const std::vector<int> dofs = active_dofs(config);
@@ -329,7 +329,7 @@ State grid_search(const Problem& p, const State& start, const RefineConfig& conf
           if (d == kTimeIndex && std::abs(cand.time_offset_s - start.time_offset_s) > config.time_offset_range_s + 1e-12) {
             continue;
           }
-          const double cost = static_cast<double>(occupancy(p, cand, config.occupancy_voxel_m, scratch));
+          const double cost = occupancy(p, cand, config.occupancy_voxel_m, scratch);
           ++result.evaluations;
           if (cost < best_cost) {
             best_cost = cost;
@@ -343,7 +343,7 @@ State grid_search(const Problem& p, const State& start, const RefineConfig& conf
     scale *= config.grid_shrink;
   }
   result.crispness_after = best_cost;
-  result.measure = "occupied voxels (" + fmt_m(config.occupancy_voxel_m) + " m)";
+  result.measure = "occupied voxels (" + fmt_m(config.occupancy_voxel_m) + " m, mean of 2 staggered grids)";
   result.converged = true;
   return best;
 }
@@ -357,12 +357,18 @@ State gauss_newton(const Problem& p, const State& start, const RefineConfig& con
   // local planes; a coarse occupancy scan puts Gauss-Newton within a step of the optimum.
   if (config.estimate_time_offset && config.time_offset_scan_step_s > 0.0) {
     const int n = static_cast<int>(std::floor(config.time_offset_range_s / config.time_offset_scan_step_s + 1e-9));
+    // Every few frames suffice for a decimetre-scale smear; the scan is then a small part of the stage.
+    const std::size_t stride = (p.frames.size() + 39) / 40;
+    std::vector<Sweep> subset;
+    for (std::size_t f = 0; f < p.frames.size(); f += stride) subset.push_back(p.frames[f]);
+    const Problem coarse = make_problem(*p.poses, std::move(subset));
     double best_cost = 0.0;
     double best_offset = start.time_offset_s;
     for (int i = -n; i <= n; ++i) {
       State cand = start;
       cand.time_offset_s = start.time_offset_s + i * config.time_offset_scan_step_s;
-      const double cost = static_cast<double>(occupancy(p, cand, 2.0 * config.occupancy_voxel_m, scratch));
+      place_all(coarse, cand, scratch);
+      const double cost = static_cast<double>(count_occupied_voxels(scratch, config.time_offset_scan_voxel_m));
       ++result.evaluations;
       if (i == -n || cost < best_cost) {
         best_cost = cost;
@@ -490,8 +496,10 @@ RefineResult refine_extrinsic(const Dataset& data, const Iso3& T_ins_lidar_start
                                 ? grid_search(p, start, config, result, progress)
                                 : gauss_newton(p, start, config, result, progress);
   std::vector<Vec3f> scratch;
-  result.occupied_voxels_before = occupancy(p, start, config.occupancy_voxel_m, scratch);
-  result.occupied_voxels_after = occupancy(p, final_state, config.occupancy_voxel_m, scratch);
+  place_all(p, start, scratch);
+  result.occupied_voxels_before = count_occupied_voxels(scratch, config.occupancy_voxel_m);
+  place_all(p, final_state, scratch);
+  result.occupied_voxels_after = count_occupied_voxels(scratch, config.occupancy_voxel_m);
   result.T_ins_lidar = final_state.T_ins_lidar;
   result.time_offset_s = final_state.time_offset_s;
   result.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();

@@ -48,13 +48,15 @@ struct RefineConfig {
                                     ///< stage 3 fixes it from fiducials; kept at its start value
 
   // kOccupancyGrid: the paper's search.
-  double occupancy_voxel_m = 0.05;  ///< voxel edge of the occupancy count, metres
+  double occupancy_voxel_m = 0.1;   ///< voxel edge of the occupancy count, metres (with downsampled
+                                    ///< frames a finer grid holds about one point per voxel and
+                                    ///< counts points instead of surfaces)
   double grid_rot_range_deg = 0.5;  ///< first-round half range per rotation axis, degrees
   double grid_trans_range_m = 0.05; ///< first-round half range per translation axis, metres
-  int grid_steps = 5;               ///< samples per side in a round (2*steps+1 per coordinate)
+  int grid_steps = 3;               ///< samples per side in a round (2*steps+1 per coordinate)
   int grid_rounds = 4;              ///< the range shrinks by grid_shrink after every round
   double grid_shrink = 0.4;         ///< range factor between rounds
-  int grid_sweeps_per_round = 2;    ///< coordinate passes over all DOF within a round
+  int grid_sweeps_per_round = 1;    ///< coordinate passes over all DOF within a round
 
   // kContinuous: plane thickness minimised by Gauss-Newton.
   double plane_voxel_m = 1.0;       ///< edge of the voxels fitted with local planes, metres
@@ -68,7 +70,9 @@ struct RefineConfig {
                                     ///< their centroids and normals follow the points
   double converged_rot_deg = 1e-4;  ///< stop when an update is below both thresholds
   double converged_trans_m = 1e-5;
-  double time_offset_scan_step_s = 0.005;  ///< coarse offset scan before Gauss-Newton, seconds
+  double time_offset_scan_step_s = 0.005;  ///< coarse occupancy scan of the offset before
+                                           ///< Gauss-Newton, seconds (0: no scan)
+  double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
 };
 
 /// One step of the search: after each grid round, or each Gauss-Newton iteration.
