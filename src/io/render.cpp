@@ -336,7 +336,7 @@ std::optional<Section> find_wall_section(const std::vector<Vec3f>& p_world) {
   sec.centre_m = best->mean + Vec3(0, 0, 0.5);  // halfway up the two cells
   sec.half_across_m = 0.5;
   sec.half_up_m = 1.0;
-  sec.half_depth_m = 0.15;
+  sec.half_depth_m = 0.4;  // along the wall, which stays flat: a deeper slab gathers points, not blur
   return sec;
 }
 
@@ -374,7 +374,7 @@ std::optional<Section> find_ground_section(const std::vector<Vec3f>& p_world) {
   sec.up_axis = Vec3::UnitZ();
   sec.half_across_m = 1.5;
   sec.half_up_m = 0.3;
-  sec.half_depth_m = 0.15;
+  sec.half_depth_m = 0.3;
   return sec;
 }
 

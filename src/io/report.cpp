@@ -258,8 +258,10 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
 
   if (!snaps.empty()) {
     h += "<h2>Cross-sections: is the map thinner?</h2>\n";
-    h += "<p>A thin slab of the stitched map, 30 cm deep, viewed edge-on, at the same place for every extrinsic "
-         "(picked automatically on the final map). With the right extrinsic every frame puts a surface at the same "
+    h += fmt::format("<p>A thin slab of the stitched map ({}{}), viewed edge-on, at the same place for every extrinsic ",
+                     wall ? fmt::format("wall: {:.0f} cm deep", 200 * wall->half_depth_m) : "",
+                     ground ? fmt::format("{}ground: {:.0f} cm deep", wall ? ", " : "", 200 * ground->half_depth_m) : "");
+    h += "(picked automatically on the final map). With the right extrinsic every frame puts a surface at the same "
          "place, so walls and ground are as thin as the LiDAR's range noise. Grid lines every 10 cm. Thickness = "
          "1.4826 &times; median absolute deviation across the surface.</p>\n";
     h += "<table><tr><th>map</th><th>wall thickness cm</th><th>ground thickness cm</th><th>points (wall / ground)</th></tr>\n";
