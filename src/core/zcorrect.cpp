@@ -17,6 +17,9 @@ namespace {
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 /// Nominal sweep duration used to check that the poses cover a frame before loading it.
 constexpr double kSweepDuration_s = 0.1;
+/// A height-prior place whose ground height is this uncertain (ground seen on one side only, far
+/// from the INS) would only add noise: skipped.
+constexpr double kMaxGroundSigma_m = 0.01;
 
 std::string fmt_m(double v, int decimals = 3) {
   char buf[64];
@@ -431,8 +434,12 @@ void from_height(const Dataset& data, const Iso3& T_ins_lidar, double time_offse
   std::vector<DzSample> samples;
   std::string last_problem;
   for (std::size_t s = 0; s < n_samples; ++s) {
-    const SurfaceHeight g = fit_surface(maps[s], targets[s].centre_xy, FiducialMatch::kLocalPlane,
+    SurfaceHeight g = fit_surface(maps[s], targets[s].centre_xy, FiducialMatch::kLocalPlane,
                                         config.min_points, config.max_ground_slope_deg, 0.3);
+    if (g.ok && g.sigma_m > kMaxGroundSigma_m) {
+      g.ok = false;
+      g.problem = "the ground points near it do not pin down the height under the INS";
+    }
     if (!g.ok) {
       last_problem = g.problem;
       continue;

@@ -56,9 +56,11 @@ struct ZConfig {
   std::size_t height_samples = 16;
   /// Ground points within this horizontal distance of the INS origin are fitted by a plane.
   double ground_radius_m = 4.0;
-  /// Neighbouring frames (within this time of the sample) are stitched in, so the ground
-  /// under the car (hidden from its own sweep) is seen from where the car was or will be.
-  double ground_window_s = 1.0;
+  /// Neighbouring frames (the nearest in time, before and after, that were at least
+  /// min_view_distance_m away, within this time) are stitched in, so the ground under the car
+  /// (hidden from its own sweep) is seen from where the car was or will be. 3 s covers 3 m even
+  /// at 1 m/s.
+  double ground_window_s = 3.0;
   std::size_t ground_frames_per_sample = 3;
   /// A ground plane steeper than this is not ground (a ramp wall, a car side).
   double max_ground_slope_deg = 15.0;
