@@ -443,6 +443,7 @@ void add_wall(Scene& s, Layout& layout, Rng& rng, const std::vector<Vec2>& path,
     if (!layout.free(c, yaw, len / 2, 0.15, 6.0)) continue;
     layout.take(c, yaw, len / 2, 0.15);
     s.boxes.push_back(ground_box(s.ground, c, yaw, len, 0.25, height, 0.0, static_cast<float>(rng.uniform(0.3, 0.7))));
+    s.boxes.back().kind = BoxKind::kWall;
     return;
   }
 }
@@ -469,8 +470,10 @@ void add_car(Scene& s, Layout& layout, Rng& rng, const std::vector<Vec2>& path) 
     layout.take(c, yaw, len / 2, wid / 2);
     const float refl = static_cast<float>(rng.uniform(0.2, 0.9));
     s.boxes.push_back(ground_box(s.ground, c, yaw, len, wid, 0.75, 0.25, refl));
+    s.boxes.back().kind = BoxKind::kCar;
     const Vec2 cabin = c + Vec2(std::cos(yaw), std::sin(yaw)) * rng.uniform(-0.4, 0.2);
     s.boxes.push_back(ground_box(s.ground, cabin, yaw, len * 0.55, wid * 0.85, 0.5, 1.0, refl));
+    s.boxes.back().kind = BoxKind::kCar;
     return;
   }
 }
@@ -516,6 +519,7 @@ void add_curbs(Scene& s, Layout& layout, Rng& rng, const std::vector<Vec2>& path
       if (!layout.free(c, h, seg / 2, 0.15, offset_m - 0.3, 0.0)) continue;
       layout.take(c, h, seg / 2, 0.15);
       s.boxes.push_back(ground_box(s.ground, c, h, seg, 0.3, 0.15, 0.0, 0.45f));
+      s.boxes.back().kind = BoxKind::kCurb;
     }
   }
   (void)rng;

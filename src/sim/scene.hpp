@@ -21,12 +21,15 @@ struct GroundPlane {
   Vec3 normal() const { return Vec3(-slope_x, -slope_y, 1.0).normalized(); }
 };
 
+enum class BoxKind : std::uint8_t { kBuilding, kWall, kCurb, kCar };
+
 /// Upright box rotated about z (buildings, walls, curbs, cars).
 struct Box {
   Vec3 center_m = Vec3::Zero();
   double yaw_rad = 0.0;
   Vec3 half_m = Vec3::Ones();
   float reflectivity = 0.4f;
+  BoxKind kind = BoxKind::kBuilding;  ///< what it stands for (tests pick surfaces by it)
 };
 struct Cylinder {  ///< vertical (poles, trunks)
   Vec2 center_m = Vec2::Zero();

@@ -49,10 +49,11 @@ Trajectory::Trajectory(const SimConfig& config, Rng& rng) : kind_(config.traject
     // Light smoothing of positions (5-sample moving average) removes the INS's own jitter.
     std::vector<Vec3> p(in.size());
     for (std::size_t i = 0; i < in.size(); ++i) {
+      // Symmetric window, shrinking at the ends so the first and last poses stay put.
+      const std::size_t half = std::min<std::size_t>({2, i, in.size() - 1 - i});
       Vec3 sum = Vec3::Zero();
       int n = 0;
-      for (std::size_t j = (i >= 2 ? i - 2 : 0); j <= std::min(in.size() - 1, i + 2); ++j, ++n)
-        sum += in[j].T_world_ins.translation() - p0;
+      for (std::size_t j = i - half; j <= i + half; ++j, ++n) sum += in[j].T_world_ins.translation() - p0;
       p[i] = sum / n;
     }
     // Which body axis points forward: the mean direction of motion in the body frame.
