@@ -16,8 +16,8 @@ namespace insalign::io {
 using insalign::DriveSummary;  // lives in core (pose-only); re-exported for io users
 
 struct DatasetPaths {
-  std::filesystem::path lidar_dir, poses;
-  std::optional<std::filesystem::path> init, fiducials;
+  std::filesystem::path lidar_dir{}, poses{};
+  std::optional<std::filesystem::path> init{}, fiducials{};  ///< --init (OpenCalib JSON), --fiducials
 };
 
 /// What load_dataset found and decided; every skipped item is counted and explained in warnings.

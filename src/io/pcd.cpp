@@ -83,6 +83,7 @@ std::string read_bytes(const std::filesystem::path& path, std::size_t limit) {
 }
 
 PcdHeader parse_header(std::string_view buf, const std::string& file) {
+  if (buf.empty()) throw InputError(file, "byte 0", "empty file");
   PcdHeader h;
   std::vector<std::string> names;
   std::vector<int> sizes, counts;
@@ -201,64 +202,6 @@ PcdHeader parse_header(std::string_view buf, const std::string& file) {
   return h;
 }
 
-// One numeric element of a field, as a double.
-inline double load_element(const char* p, char type, int size) {
-  switch (size) {
-    case 1:
-      return type == 'I' ? static_cast<double>(static_cast<std::int8_t>(*p)) : static_cast<double>(static_cast<std::uint8_t>(*p));
-    case 2: {
-      if (type == 'I') {
-        std::int16_t v;
-        std::memcpy(&v, p, 2);
-        return v;
-      }
-      std::uint16_t v;
-      std::memcpy(&v, p, 2);
-      return v;
-    }
-    case 4: {
-      if (type == 'F') {
-        float v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      if (type == 'I') {
-        std::int32_t v;
-        std::memcpy(&v, p, 4);
-        return v;
-      }
-      std::uint32_t v;
-      std::memcpy(&v, p, 4);
-      return v;
-    }
-    default: {
-      if (type == 'F') {
-        double v;
-        std::memcpy(&v, p, 8);
-        return v;
-      }
-      if (type == 'I') {
-        std::int64_t v;
-        std::memcpy(&v, p, 8);
-        return static_cast<double>(v);
-      }
-      std::uint64_t v;
-      std::memcpy(&v, p, 8);
-      return static_cast<double>(v);
-    }
-  }
-}
-
-// Where each field we use sits, and how to step from one point to the next: `stride` is the
-// point size for binary (array of structs) and the element size for binary_compressed (one
-// contiguous block per field).
-struct Column {
-  const PcdHeader::Field* field = nullptr;
-  const char* base = nullptr;
-  std::size_t stride = 0;
-  double at(std::size_t i) const { return load_element(base + i * stride, field->type, field->size); }
-};
-
 enum class TimeKind { kNone, kAbsolute, kRelativeS, kRelativeNs };
 
 struct Layout {
@@ -283,39 +226,83 @@ Layout layout_of(const PcdHeader& h) {
   return l;
 }
 
-// Fills the sweep from per-point values, dropping non-finite points, and sets the times.
-template <typename Get>
-void fill_sweep(Sweep& sweep, std::size_t n, const Layout& l, Get&& get, PcdInfo& info) {
-  sweep.p_lidar.reserve(n);
-  if (l.intensity) sweep.intensity.reserve(n);
-  if (l.ring) sweep.ring.reserve(n);
-  std::vector<double> t;
-  if (l.time) t.reserve(n);
+// Where one field's values sit: the first at `base`, the next `stride` bytes on. Binary data
+// is an array of structs (stride = point size), binary_compressed one block per field (stride =
+// element size), ascii is parsed into rows of doubles first.
+struct Column {
+  const char* base = nullptr;
+  std::size_t stride = 0;
+  char type = 'F';
+  int size = 4;
+};
+
+template <typename T>
+void convert(const Column& c, std::size_t n, std::vector<double>& out) {
   for (std::size_t i = 0; i < n; ++i) {
-    const double x = get(l.x, i), y = get(l.y, i), z = get(l.z, i);
-    const double ti = l.time ? get(l.time, i) : 0.0;
-    if (!std::isfinite(x) || !std::isfinite(y) || !std::isfinite(z) || !std::isfinite(ti)) {
-      ++info.dropped_nonfinite;
-      continue;
-    }
-    sweep.p_lidar.emplace_back(static_cast<float>(x), static_cast<float>(y), static_cast<float>(z));
-    if (l.intensity) sweep.intensity.push_back(static_cast<float>(get(l.intensity, i)));
-    if (l.ring) {
-      const double r = get(l.ring, i);
-      sweep.ring.push_back(static_cast<std::uint16_t>(std::clamp(r, 0.0, 65535.0)));
-    }
-    if (l.time) t.push_back(l.time_kind == TimeKind::kRelativeNs ? ti * 1e-9 : ti);
+    T v;
+    std::memcpy(&v, c.base + i * c.stride, sizeof(T));
+    out[i] = static_cast<double>(v);
   }
+}
+
+// One column as doubles; the type switch runs once per column, not once per value.
+std::vector<double> column_values(const Column& c, std::size_t n) {
+  std::vector<double> out(n);
+  switch (c.type == 'F' ? c.size * 10 : c.type == 'I' ? c.size * 100 : c.size) {
+    case 40: convert<float>(c, n, out); break;
+    case 80: convert<double>(c, n, out); break;
+    case 100: convert<std::int8_t>(c, n, out); break;
+    case 200: convert<std::int16_t>(c, n, out); break;
+    case 400: convert<std::int32_t>(c, n, out); break;
+    case 800: convert<std::int64_t>(c, n, out); break;
+    case 1: convert<std::uint8_t>(c, n, out); break;
+    case 2: convert<std::uint16_t>(c, n, out); break;
+    case 4: convert<std::uint32_t>(c, n, out); break;
+    default: convert<std::uint64_t>(c, n, out); break;
+  }
+  return out;
+}
+
+// Fills the sweep from the columns, dropping non-finite points, and sets the times.
+template <typename Locate>
+void fill_sweep(Sweep& sweep, std::size_t n, const Layout& l, Locate&& locate, PcdInfo& info) {
+  const std::vector<double> x = column_values(locate(l.x), n), y = column_values(locate(l.y), n),
+                            z = column_values(locate(l.z), n);
+  const std::vector<double> t = l.time ? column_values(locate(l.time), n) : std::vector<double>();
+  const std::vector<double> intensity = l.intensity ? column_values(locate(l.intensity), n) : std::vector<double>();
+  const std::vector<double> ring = l.ring ? column_values(locate(l.ring), n) : std::vector<double>();
+  const double time_scale = l.time_kind == TimeKind::kRelativeNs ? 1e-9 : 1.0;
+  sweep.p_lidar.resize(n);
+  if (l.intensity) sweep.intensity.resize(n);
+  if (l.ring) sweep.ring.resize(n);
+  std::vector<double> t_kept(l.time ? n : 0);
+  std::size_t kept = 0;
+  double t_max = -std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double ti = l.time ? t[i] * time_scale : 0.0;
+    if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !std::isfinite(z[i]) || !std::isfinite(ti)) continue;
+    sweep.p_lidar[kept] = Vec3f(static_cast<float>(x[i]), static_cast<float>(y[i]), static_cast<float>(z[i]));
+    if (l.intensity) sweep.intensity[kept] = static_cast<float>(intensity[i]);
+    if (l.ring) sweep.ring[kept] = static_cast<std::uint16_t>(std::clamp(ring[i], 0.0, 65535.0));
+    if (l.time) {
+      t_kept[kept] = ti;
+      t_max = std::max(t_max, ti);
+    }
+    ++kept;
+  }
+  info.dropped_nonfinite = n - kept;
+  sweep.p_lidar.resize(kept);
+  if (l.intensity) sweep.intensity.resize(kept);
+  if (l.ring) sweep.ring.resize(kept);
   sweep.t_end_s = std::numeric_limits<double>::quiet_NaN();
-  if (!l.time || t.empty()) return;
-  const double t_max = *std::max_element(t.begin(), t.end());
-  sweep.dt_s.resize(t.size());
-  for (std::size_t i = 0; i < t.size(); ++i) sweep.dt_s[i] = static_cast<float>(t[i] - t_max);
+  if (!l.time || kept == 0) return;
+  sweep.dt_s.resize(kept);
+  for (std::size_t i = 0; i < kept; ++i) sweep.dt_s[i] = static_cast<float>(t_kept[i] - t_max);
   if (l.time_kind == TimeKind::kAbsolute) sweep.t_end_s = t_max;
 }
 
 void read_ascii(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file, PcdInfo& info) {
-  // Parse every line into a row of doubles (one per element), then reuse fill_sweep.
+  // Parse every line into a row of doubles (one per element), then read columns from the rows.
   std::size_t elements = 0;
   std::vector<std::size_t> first_element(h.fields.size());
   for (std::size_t f = 0; f < h.fields.size(); ++f) {
@@ -341,9 +328,10 @@ void read_ascii(Sweep& sweep, const PcdHeader& h, std::string_view data, const s
     }
     for (std::string_view v : tok) {
       double d = 0.0;
+      if (!v.empty() && v.front() == '+') v.remove_prefix(1);
       const char* end = v.data() + v.size();
       auto [ptr, ec] = std::from_chars(v.data(), end, d);
-      if (ec == std::errc::result_out_of_range) {
+      if (ec == std::errc::result_out_of_range && ptr == end) {
         d = std::numeric_limits<double>::infinity();  // dropped as non-finite
       } else if (ec != std::errc() || ptr != end) {
         throw InputError(file, at_line(line_no), "not a number: '" + std::string(v) + "'");
@@ -356,11 +344,11 @@ void read_ascii(Sweep& sweep, const PcdHeader& h, std::string_view data, const s
     throw InputError(file, at_line(line_no),
                      fmt::format("truncated: POINTS says {} but the file has {} data lines", h.points, rows));
   }
-  const Layout l = layout_of(h);
-  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
-    return values[i * elements + first_element[static_cast<std::size_t>(f - h.fields.data())]];
+  const auto locate = [&](const PcdHeader::Field* f) {
+    const std::size_t k = first_element[static_cast<std::size_t>(f - h.fields.data())];
+    return Column{reinterpret_cast<const char*>(values.data() + k), elements * sizeof(double), 'F', 8};
   };
-  fill_sweep(sweep, rows, l, get, info);
+  fill_sweep(sweep, rows, layout_of(h), locate, info);
 }
 
 void read_binary(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file,
@@ -371,11 +359,10 @@ void read_binary(Sweep& sweep, const PcdHeader& h, std::string_view data, const 
                      fmt::format("truncated: {} points of {} bytes need {} data bytes, the file has {}", h.points,
                                  h.point_bytes, need, data.size()));
   }
-  const Layout l = layout_of(h);
-  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
-    return load_element(data.data() + i * h.point_bytes + f->offset, f->type, f->size);
+  const auto locate = [&](const PcdHeader::Field* f) {
+    return Column{data.data() + f->offset, h.point_bytes, f->type, f->size};
   };
-  fill_sweep(sweep, h.points, l, get, info);
+  fill_sweep(sweep, h.points, layout_of(h), locate, info);
 }
 
 void read_binary_compressed(Sweep& sweep, const PcdHeader& h, std::string_view data, const std::string& file,
@@ -397,7 +384,7 @@ void read_binary_compressed(Sweep& sweep, const PcdHeader& h, std::string_view d
                      fmt::format("truncated: compressed block of {} bytes, only {} in the file", compressed,
                                  data.size() - 8));
   }
-  std::string raw(need, '\0');
+  std::vector<char> raw(need);
   if (need > 0) {
     const unsigned int got = lzf_decompress(data.data() + 8, compressed, raw.data(), static_cast<unsigned int>(need));
     if (got != need) {
@@ -406,12 +393,10 @@ void read_binary_compressed(Sweep& sweep, const PcdHeader& h, std::string_view d
     }
   }
   // binary_compressed stores one block per field: field f starts at points * offset(f).
-  const Layout l = layout_of(h);
-  auto get = [&](const PcdHeader::Field* f, std::size_t i) {
-    const std::size_t elem = static_cast<std::size_t>(f->size) * static_cast<std::size_t>(f->count);
-    return load_element(raw.data() + h.points * f->offset + i * elem, f->type, f->size);
+  const auto locate = [&](const PcdHeader::Field* f) {
+    return Column{raw.data() + h.points * f->offset, static_cast<std::size_t>(f->size) * f->count, f->type, f->size};
   };
-  fill_sweep(sweep, h.points, l, get, info);
+  fill_sweep(sweep, h.points, layout_of(h), locate, info);
 }
 
 }  // namespace
