@@ -124,7 +124,7 @@ TEST_F(EvaluateCli, SimulateWritesTheDatasetAndEvaluatesAgainstItself) {
   EXPECT_EQ(gt.at("T_ins_lidar").size(), 4u);
   // The ground truth against itself: zero error, passes the tightest thresholds.
   r = run("evaluate --gt " + (out / "ground_truth.json").string() + " --result " + (out / "ground_truth.json").string() +
-          " --max-rot-deg 0 --max-trans-m 0");
+          " --max-rot-deg 1e-6 --max-trans-m 1e-9");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   // Running again into the same directory without --overwrite refuses.
   r = run("simulate --out " + out.string() + " --frames 2 --quiet");
