@@ -9,6 +9,8 @@
 #include "core/errors.hpp"
 #include "core/occupancy.hpp"
 #include "core/refine.hpp"
+#include "sim/simulate.hpp"
+#include "sim/world_dataset.hpp"
 
 namespace insalign {
 namespace {
@@ -202,6 +204,27 @@ TEST(Refine, RecoversTheTimeOffset) {
   const ExtrinsicError after = extrinsic_error(r.T_ins_lidar, drive.T_ins_lidar_true);
   EXPECT_LT(after.drpy_deg.maxCoeff(), 0.03);
   EXPECT_LT(after.dt_m.head<2>().maxCoeff(), 0.01);
+}
+
+// The project's simulator: a short figure-8 at reduced resolution with INS noise and a time offset;
+// frames render lazily, so only the ones stage 2 picks are ray-cast.
+TEST(Refine, SimulatedDriveWithTimeOffsetMeetsBounds) {
+  sim::SimConfig sc;
+  sc.seed = 11;
+  sc.duration_s = 35.0;
+  sc.azimuth_step_deg = 1.0;
+  sc.time_offset_s = -0.023;
+  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+  const Dataset data = sim::world_dataset(world);
+  const Iso3 start = perturbed(world->T_ins_lidar_true, 12);
+  const RefineResult r = refine_extrinsic(data, start, 0.0, test_config());
+  const ExtrinsicError before = extrinsic_error(start, world->T_ins_lidar_true);
+  const ExtrinsicError after = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
+  EXPECT_LT(after.angle_deg, 0.25 * before.angle_deg);
+  EXPECT_LT(after.drpy_deg.maxCoeff(), 0.03);
+  EXPECT_LT(after.dt_m.head<2>().maxCoeff(), 0.01);
+  EXPECT_NEAR(r.time_offset_s, sc.time_offset_s, 0.002);
+  EXPECT_LT(r.crispness_after, r.crispness_before);
 }
 
 TEST(Refine, StandstillIsUnobservable) {
