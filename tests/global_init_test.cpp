@@ -162,6 +162,11 @@ TEST(GlobalInit, WrongInitIsOverriddenAndGoodInitKept) {
 TEST(GlobalInit, StandstillIsUnobservable) {
   const SimDrive drive = sim_drive(31, sim::InsAxes::kXForward, sim::TrajectoryKind::kStandstill, 3.0);
   EXPECT_THROW(initialise_extrinsic(drive.data, std::nullopt), UnobservableError);
+  // With an init the data cannot check, the init goes on unchanged and the reason is given.
+  const GlobalInitResult res = initialise_extrinsic(drive.data, drive.world->T_ins_lidar_init);
+  EXPECT_EQ(res.source, "init");
+  EXPECT_TRUE(res.T_ins_lidar.isApprox(drive.world->T_ins_lidar_init));
+  EXPECT_NE(res.explanation.find("unchecked"), std::string::npos);
 }
 
 }  // namespace

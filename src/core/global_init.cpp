@@ -285,7 +285,9 @@ PlanarHandEyeResult solve_planar_hand_eye(const std::vector<MotionPair>& pairs, 
   return result;
 }
 
-GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<Iso3>& T_ins_lidar_init,
+namespace {
+
+GlobalInitResult initialise_from_data(const Dataset& data, const std::optional<Iso3>& T_ins_lidar_init,
                                       const GlobalInitConfig& config) {
   const auto t_start = std::chrono::steady_clock::now();
   GlobalInitResult result;
@@ -633,6 +635,26 @@ GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<I
   result.explanation = why.str();
   result.wall_time_s = elapsed();
   return result;
+}
+
+}  // namespace
+
+GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<Iso3>& T_ins_lidar_init,
+                                      const GlobalInitConfig& config) {
+  const auto t_start = std::chrono::steady_clock::now();
+  try {
+    return initialise_from_data(data, T_ins_lidar_init, config);
+  } catch (const UnobservableError& e) {
+    if (!T_ins_lidar_init) throw;
+    // The data cannot check the init; later stages judge observability themselves.
+    GlobalInitResult result;
+    result.T_ins_lidar = *T_ins_lidar_init;
+    result.source = "init";
+    result.explanation = std::string("init kept unchecked: ") + e.what();
+    result.candidates.push_back({*T_ins_lidar_init, 0.0, "init"});
+    result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    return result;
+  }
 }
 
 }  // namespace insalign

@@ -88,7 +88,8 @@ struct GlobalInitResult {
   double load_s = 0.0, coarse_s = 0.0, hand_eye_s = 0.0, score_s = 0.0;  ///< wall time per phase
 };
 
-/// Throws UnobservableError when the data cannot give a start (no ground plane, no motion).
+/// Throws UnobservableError when the data cannot give a start (no ground plane, no motion) and there
+/// is no init; with an init the data cannot check, returns the init (source "init") and says why.
 GlobalInitResult initialise_extrinsic(const Dataset& data, const std::optional<Iso3>& T_ins_lidar_init,
                                       const GlobalInitConfig& config = {});
 
