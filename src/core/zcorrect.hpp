@@ -48,8 +48,9 @@ struct ZConfig {
   double max_view_distance_m = 20.0;
   std::size_t frames_per_fiducial = 8;
   /// Frames closer in time than this to an already chosen one for the same fiducial are
-  /// skipped, so the chosen frames see it from different places (independent errors).
-  double min_frame_separation_s = 0.3;
+  /// skipped, so the chosen frames see it from different places and, on a figure-8, from
+  /// different passes (INS drift differs between passes and partly averages out).
+  double min_frame_separation_s = 3.0;
 
   // Height prior (--ins-height-m): the ground under the INS origin from the stitched map.
   /// Number of places along the drive where the ground height under the INS is measured.
