@@ -23,8 +23,9 @@ std::string describe_flags(const DofVerdict& v) {
 }
 
 TEST(Observability, FlagsTheWeakDirectionOfAnInformationMatrix) {
-  // 1e6 residuals of 2 cm: strong everywhere except tz.
+  // 1e6 residuals of 2 cm: strong everywhere except tz (translation lever 1, rotation lever 10 m).
   Mat6 H = Mat6::Identity() * 1e6;
+  H.bottomRightCorner<3, 3>() *= 100.0;
   H(2, 2) = 1e-3;
   const DofVerdict v = assess_observability(H, 0.02, 1e6);
   EXPECT_EQ(v.determined, flags({2})) << describe_flags(v);
@@ -37,6 +38,7 @@ TEST(Observability, FlagsTheWeakDirectionOfAnInformationMatrix) {
   j(0) = 1.0;
   j(5) = 5.0;
   Mat6 H2 = Mat6::Identity() * 1e6;
+  H2.bottomRightCorner<3, 3>() *= 100.0;
   H2(0, 0) = H2(5, 5) = 0.0;
   H2 += 1e6 * j * j.transpose();
   const DofVerdict v2 = assess_observability(H2, 0.02, 1e6);
