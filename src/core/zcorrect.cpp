@@ -293,7 +293,8 @@ void from_fiducials(const Dataset& data, const Iso3& T_ins_lidar, double time_of
       if (d >= config.min_view_distance_m && d <= config.max_view_distance_m) candidates.push_back({d, i});
     }
     std::sort(candidates.begin(), candidates.end());
-    for (const auto& [d, i] : candidates) {
+    for (const auto& candidate : candidates) {
+      const std::size_t i = candidate.second;  // not a structured binding: clang 14 cannot capture those
       if (targets[f].frames.size() >= config.frames_per_fiducial) break;
       const bool too_close = std::any_of(targets[f].frames.begin(), targets[f].frames.end(), [&](std::size_t j) {
         return std::abs(frames[j].t_end_s - frames[i].t_end_s) < config.min_frame_separation_s;
