@@ -376,7 +376,7 @@ void from_fiducials(const Dataset& data, const Iso3& T_ins_lidar, double time_of
   result.determined = true;
   result.method = "fiducials";
   result.dz_m = dz;
-  result.tz_stddev_m = sd;
+  result.tz_stddev_m = sd = std::hypot(sd, config.ins_vertical_sigma_m);
   result.T_ins_lidar = with_dz(T_ins_lidar, dz);
   char buf[200];
   std::snprintf(buf, sizeof buf, "tz from %zu of %zu fiducials: dz = %+.3f m (tz %.3f -> %.3f m, +- %.3f m)", used,

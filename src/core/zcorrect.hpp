@@ -39,6 +39,11 @@ struct ZConfig {
   std::size_t min_fiducials = 3;
   /// Survey noise assumed for each fiducial (1 sigma); enters the weights and tz_stddev_m.
   double fiducial_sigma_m = 0.005;
+  /// The INS's own absolute height error, averaged over the frames used (1 sigma). Fiducials are
+  /// absolute, so it adds to tz_stddev_m in quadrature; no LiDAR data can remove it (it lifts map
+  /// and trajectory together). 1 cm: an RTK-fixed INS (~1.5 cm vertical RMS, partly averaging
+  /// over a few minutes of driving). The height prior is relative to the INS poses: not affected.
+  double ins_vertical_sigma_m = 0.01;
   /// Points nearer to the LiDAR than this are the car body or its shadow and are dropped.
   double min_range_m = 2.5;
   /// Frames used for a fiducial: those whose LiDAR passes within [min_view_distance_m,

@@ -295,6 +295,8 @@ std::vector<P> build_table() {
   t.push_back(field("z.outlier_mad_factor", "see outlier_threshold_m", INSALIGN_AT(calibrate.z.outlier_mad_factor)));
   t.push_back(field("z.min_fiducials", "fewer usable fiducials and tz is not determined", INSALIGN_AT(calibrate.z.min_fiducials)));
   t.push_back(field("z.fiducial_sigma_m", "survey noise of a fiducial (1 sigma), m", INSALIGN_AT(calibrate.z.fiducial_sigma_m)));
+  t.push_back(field("z.ins_vertical_sigma_m", "absolute height error of the INS over the drive (1 sigma), m",
+                    INSALIGN_AT(calibrate.z.ins_vertical_sigma_m)));
   t.push_back(field("z.min_range_m", "nearer points are the car body, m", INSALIGN_AT(calibrate.z.min_range_m)));
   t.push_back(field("z.min_view_distance_m", "frames used for a fiducial pass at least this far from it, m", INSALIGN_AT(calibrate.z.min_view_distance_m)));
   t.push_back(field("z.max_view_distance_m", "...and at most this far, m", INSALIGN_AT(calibrate.z.max_view_distance_m)));

@@ -24,7 +24,14 @@ constexpr double kEpochS = 1700000000.0;
 constexpr double kTruthRateHz = 200.0;
 // NovAtel-class INS noise at scale 1 (1 sigma).
 constexpr double kPosWhiteM = 0.01;
-constexpr double kPosDriftStepM = 0.004;  // per 1 s knot: ~4 cm after 100 s
+// RTK-fixed GNSS/INS position error is bounded, not a random walk: a first-order Gauss-Markov
+// process per axis, stationary from the first sample (NovAtel RTK: ~1 cm + 1 ppm horizontal RMS,
+// vertical about 1.5 times worse), decorrelating over tens of seconds as satellites and multipath
+// change. Its mean over a drive is what no LiDAR data can reveal: it sets the floor of the
+// fiducial z accuracy (README, stage 3).
+constexpr double kPosDriftSigmaHorizontalM = 0.01;
+constexpr double kPosDriftSigmaVerticalM = 0.015;
+constexpr double kPosDriftCorrelationS = 30.0;
 constexpr double kRollPitchWhiteDeg = 0.01;
 constexpr double kYawWhiteDeg = 0.03;
 constexpr std::uint64_t kStreamFramePoses = 1;
@@ -178,11 +185,19 @@ World build_world(const SimConfig& config) {
   Rng drift_rng(hash_counters(config.seed, 0xD21F7));
   w.drift.t0_s = w.poses_true.t_begin();
   w.drift.knot_spacing_s = 1.0;
-  Vec3 walk = Vec3::Zero();
-  const double step = kPosDriftStepM * config.ins_noise_scale;
-  for (double t = w.poses_true.t_begin(); t <= w.poses_true.t_end() + 1.0; t += 1.0) {
-    w.drift.knots_m.push_back(walk);
-    walk += Vec3(drift_rng.normal(step), drift_rng.normal(step), drift_rng.normal(step));
+  const Vec3 sigma = config.ins_noise_scale *
+                     Vec3(kPosDriftSigmaHorizontalM, kPosDriftSigmaHorizontalM, kPosDriftSigmaVerticalM);
+  const double a = std::exp(-w.drift.knot_spacing_s / kPosDriftCorrelationS);
+  const double innovation = std::sqrt(1.0 - a * a);
+  auto draw = [&]() {  // one statement per axis: argument evaluation order is unspecified
+    Vec3 v;
+    for (int axis = 0; axis < 3; ++axis) v[axis] = drift_rng.normal(sigma[axis]);
+    return v;
+  };
+  Vec3 error = draw();  // stationary from the start: the INS is no more exact at t0 than later
+  for (double t = w.poses_true.t_begin(); t <= w.poses_true.t_end() + 1.0; t += w.drift.knot_spacing_s) {
+    w.drift.knots_m.push_back(error);
+    error = a * error + innovation * draw();
   }
   return w;
 }

@@ -42,8 +42,9 @@ struct SimConfig {
   double dropout_prob = 0.02;       ///< probability that a return is lost
   double max_range_m = 120.0;       ///< no return beyond this
   InsAxes ins_axes = InsAxes::kXForward;
-  /// 1 = NovAtel class: position white ~1 cm plus a slow random-walk drift of a few cm over the
-  /// drive; attitude white ~0.01 deg roll/pitch, ~0.03 deg yaw. 0 = perfect poses.
+  /// 1 = NovAtel RTK class: position white ~1 cm plus a slow bounded error (Gauss-Markov, 1 cm
+  /// horizontal, 1.5 cm vertical, 30 s correlation); attitude white ~0.01 deg roll/pitch,
+  /// ~0.03 deg yaw. 0 = perfect poses.
   double ins_noise_scale = 1.0;
   double time_offset_s = 0.0;       ///< t_ins = t_lidar + offset
   std::optional<Iso3> T_ins_lidar;  ///< unset: random roof mount (any yaw, roll/pitch within 10 deg)
@@ -64,7 +65,7 @@ std::vector<std::string> lidar_model_names();
 
 struct Scene;  // primitives and their BVH (scene.hpp)
 
-/// Slow INS position drift: a random walk sampled at knots, interpolated linearly.
+/// Slow INS position error (bounded, correlated in time) sampled at knots, interpolated linearly.
 struct InsDrift {
   double t0_s = 0.0, knot_spacing_s = 1.0;
   std::vector<Vec3> knots_m;
