@@ -1,5 +1,6 @@
 // insalign calibrate: load and validate the inputs, run the pipeline, write the results.
 #include <fmt/core.h>
+#include <sys/resource.h>
 
 #include <chrono>
 #include <memory>
@@ -115,6 +116,13 @@ io::ReportData make_report(const Dataset& data, const CalibrationResult& r, cons
   return report;
 }
 
+/// Peak resident memory of this process so far (Linux reports ru_maxrss in KiB).
+double peak_rss_mb() {
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
 void print_summary(const CalibrationResult& r) {
   const Vec3 t = r.T_ins_lidar.translation();
   const Vec3 rpy = rpy_from_rotation(r.T_ins_lidar.linear()) * kDegPerRad;
@@ -140,7 +148,7 @@ void print_summary(const CalibrationResult& r) {
                            r.refine->crispness_after));
   }
   stage_line("z", r.z.wall_time_s, r.z.determined ? r.z.method : "tz not determined");
-  fmt::print("  total      {:>7.2f} s\n", r.wall_time_s);
+  fmt::print("  total      {:>7.2f} s  (loading included), peak memory {:.0f} MB\n", r.wall_time_s, peak_rss_mb());
   for (const std::string& w : r.warnings) fmt::print("warning: {}\n", w);
 }
 
