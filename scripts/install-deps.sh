@@ -4,7 +4,7 @@ set -euo pipefail
 export DEBIAN_FRONTEND=noninteractive
 packages=(
   build-essential cmake ninja-build pkg-config git
-  libeigen3-dev libceres-dev libtbb-dev libnanoflann-dev
+  libeigen3-dev libtbb-dev libnanoflann-dev
   nlohmann-json3-dev libyaml-cpp-dev libcli11-dev libfmt-dev liblzf-dev libstb-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium  # headless, for the report rendering test

@@ -29,15 +29,6 @@ TEST(Occupancy, CountsDistinctVoxels) {
   EXPECT_EQ(count_occupied_voxels({}, 0.1), 0u);
 }
 
-TEST(Occupancy, DownsampleKeepsTheFirstPointPerVoxel) {
-  std::vector<Vec3f> p = {{0.5f, 0.5f, 0.5f}, {0.6f, 0.5f, 0.5f}, {1.5f, 0.5f, 0.5f}, {0.7f, 0.2f, 0.1f}};
-  const auto idx = voxel_downsample_indices(p, 1.0);
-  ASSERT_EQ(idx.size(), 2u);
-  EXPECT_EQ(idx[0], 0u);
-  EXPECT_EQ(idx[1], 2u);
-  EXPECT_EQ(voxel_downsample(p, 1.0).size(), 2u);
-}
-
 TEST(Occupancy, BlurredMapOccupiesMoreVoxels) {
   std::vector<Vec3f> sharp = noisy_plane(40000, 0.005, 0.0, 1);
   std::vector<Vec3f> blurred = sharp;

@@ -75,12 +75,5 @@ TEST(PlaneFeatures, RejectsLinesAndScatter) {
   EXPECT_LT(in_planes, pts.size() / 20);
 }
 
-TEST(PlaneFeatures, DownsampleKeepsOnePointPerVoxel) {
-  std::vector<Vec3f> pts{{0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.02f}, {0.3f, 0.0f, 0.0f}, {-0.01f, 0.0f, 0.0f}};
-  const auto kept = voxel_downsample_indices(pts, 0.25);
-  EXPECT_EQ(kept, (std::vector<std::uint32_t>{0, 2, 3}));
-  EXPECT_EQ(voxel_downsample_indices(pts, 0.0).size(), 4u);
-}
-
 }  // namespace
 }  // namespace insalign

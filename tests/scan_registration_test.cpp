@@ -42,7 +42,7 @@ TEST(ScanRegistration, RecoversRelativeMotionOfPlaneScene) {
     const Iso3 T_world_a = make_transform({0, 0, 1.9}, {1, -2, 30});
     const Iso3 T_world_b = make_transform({1.5, 0.8, 1.95}, {0, -1, 42});
     const std::vector<Vec3> scan_a = observe(world, T_world_a, rng);
-    const std::vector<Vec3> scan_b = voxel_downsample(observe(world, T_world_b, rng), 0.4);
+    const std::vector<Vec3> scan_b = voxel_centroids(observe(world, T_world_b, rng), 0.4);
     const Iso3 T_a_b_true = T_world_a.inverse() * T_world_b;
     const Iso3 T_a_b_init = T_a_b_true * make_transform({0.4, -0.3, 0.1}, {1, 1, 4});
     const ScanRegistrationResult reg = register_scans(scan_a, scan_b, T_a_b_init);
@@ -62,7 +62,7 @@ TEST(ScanRegistration, TooFewPointsIsNotConverged) {
 
 TEST(ScanRegistration, VoxelDownsampleKeepsOnePointPerVoxel) {
   const std::vector<Vec3> pts = {Vec3(0.1, 0.1, 0.1), Vec3(0.3, 0.3, 0.3), Vec3(1.2, 0.1, 0.1)};
-  const std::vector<Vec3> out = voxel_downsample(pts, 1.0);
+  const std::vector<Vec3> out = voxel_centroids(pts, 1.0);
   ASSERT_EQ(out.size(), 2u);
   EXPECT_NEAR(out[0].x(), 0.2, 1e-12);  // centroid of the first voxel
 }

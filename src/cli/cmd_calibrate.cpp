@@ -30,12 +30,6 @@ struct CalibrateOptions {
   bool no_report = false;
 };
 
-Vec6 as_dofs(const Iso3& T) {
-  Vec6 v;
-  v << T.translation(), rpy_from_rotation(T.linear()) * kDegPerRad;
-  return v;
-}
-
 // The report: tables from the result, maps of the same frames at each stage's extrinsic.
 io::ReportData make_report(const Dataset& data, const CalibrationResult& r, const DriveSummary& drive,
                            const io::LoadReport& load, const std::vector<std::filesystem::path>& formats,

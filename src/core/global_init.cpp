@@ -495,7 +495,7 @@ GlobalInitResult initialise_from_data(const Dataset& data, const std::optional<I
     const Frame& frame = frames[static_cast<std::size_t>(coarse_group[0][c])];
     for (std::size_t i = 0; i < frame.sweep.size(); ++i)
       if (frame.off_ground[i]) coarse_lev[c].push_back(R_lev_lidar * frame.sweep.p_lidar[i].cast<double>());
-    coarse_lev[c] = voxel_downsample(coarse_lev[c], config.coarse_voxel_m);
+    coarse_lev[c] = voxel_centroids(coarse_lev[c], config.coarse_voxel_m);
   }
   auto coarse_score = [&](double yaw_rad) {
     std::vector<Vec3> p_world;
@@ -539,8 +539,8 @@ GlobalInitResult initialise_from_data(const Dataset& data, const std::optional<I
     const Frame& fb = frames[static_cast<std::size_t>(slot_of.at(pair_pos[k].second))];
     std::vector<Vec3> target, source;
     try {
-      target = voxel_downsample(to_vec3(deskew_sweep(fa.sweep, data.poses, X_coarse)), config.icp_target_voxel_m);
-      source = voxel_downsample(to_vec3(deskew_sweep(fb.sweep, data.poses, X_coarse)), config.icp_source_voxel_m);
+      target = voxel_centroids(to_vec3(deskew_sweep(fa.sweep, data.poses, X_coarse)), config.icp_target_voxel_m);
+      source = voxel_centroids(to_vec3(deskew_sweep(fb.sweep, data.poses, X_coarse)), config.icp_source_voxel_m);
     } catch (const OutOfRangeError&) {
       return;
     }

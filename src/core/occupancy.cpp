@@ -12,19 +12,10 @@
 namespace insalign {
 namespace {
 
-constexpr std::int64_t kKeyBias = 1 << 20;
-constexpr std::uint64_t kKeyMask = (1u << 21) - 1;
-
-std::uint64_t pack(std::int64_t ix, std::int64_t iy, std::int64_t iz) {
-  return (static_cast<std::uint64_t>(ix + kKeyBias) & kKeyMask) |
-         ((static_cast<std::uint64_t>(iy + kKeyBias) & kKeyMask) << 21) |
-         ((static_cast<std::uint64_t>(iz + kKeyBias) & kKeyMask) << 42);
-}
-
 using KeyIndex = std::pair<std::uint64_t, std::uint32_t>;
 
 std::vector<KeyIndex> sorted_keys(const std::vector<Vec3f>& points, double voxel_m) {
-  const float inv = static_cast<float>(1.0 / voxel_m);
+  const double inv = 1.0 / voxel_m;
   std::vector<KeyIndex> keys(points.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& r) {
     for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = {voxel_key(points[i], inv), static_cast<std::uint32_t>(i)};
@@ -96,17 +87,11 @@ void fit_cell(const std::vector<Vec3f>& points, KeyIndex* begin, KeyIndex* end, 
 
 }  // namespace
 
-std::uint64_t voxel_key(const Vec3f& p, float inv_voxel_m) {
-  return pack(static_cast<std::int64_t>(std::floor(p.x() * inv_voxel_m)),
-              static_cast<std::int64_t>(std::floor(p.y() * inv_voxel_m)),
-              static_cast<std::int64_t>(std::floor(p.z() * inv_voxel_m)));
-}
-
 std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m, const Vec3f& grid_shift_m) {
-  const float inv = static_cast<float>(1.0 / voxel_m);
+  const double inv = 1.0 / voxel_m;
   std::vector<std::uint64_t> keys(p_world.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, p_world.size(), 8192), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(p_world[i] - grid_shift_m, inv);
+    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(Vec3f(p_world[i] - grid_shift_m), inv);
   });
   tbb::parallel_sort(keys.begin(), keys.end());
   return static_cast<std::size_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
@@ -116,23 +101,6 @@ double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m) {
   const Vec3f half = Vec3f::Constant(static_cast<float>(0.5 * voxel_m));
   return 0.5 * static_cast<double>(count_occupied_voxels(p_world, voxel_m) +
                                    count_occupied_voxels(p_world, voxel_m, half));
-}
-
-std::vector<std::size_t> voxel_downsample_indices(const std::vector<Vec3f>& points, double voxel_m) {
-  const std::vector<KeyIndex> keys = sorted_keys(points, voxel_m);
-  std::vector<std::size_t> kept;
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    // Sorted by (key, index): the first of each run is the earliest point of that voxel.
-    if (i == 0 || keys[i].first != keys[i - 1].first) kept.push_back(keys[i].second);
-  }
-  std::sort(kept.begin(), kept.end());
-  return kept;
-}
-
-std::vector<Vec3f> voxel_downsample(const std::vector<Vec3f>& points, double voxel_m) {
-  std::vector<Vec3f> out;
-  for (std::size_t i : voxel_downsample_indices(points, voxel_m)) out.push_back(points[i]);
-  return out;
 }
 
 LocalPlanes fit_local_planes(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config) {

@@ -7,11 +7,9 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "core/voxel_grid.hpp"  // voxel_downsample, used with these measures
 
 namespace insalign {
-
-/// Key of the voxel of edge voxel_m holding p (21 bits per axis, wraps beyond +-1 km/voxel_m*1e3).
-std::uint64_t voxel_key(const Vec3f& p, float inv_voxel_m);
 
 /// Space occupancy (the paper's measure): number of distinct voxels of edge voxel_m that hold at
 /// least one point, the grid shifted by grid_shift_m. Parallel (TBB); the input is not modified.
@@ -22,13 +20,6 @@ std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxe
 /// happens to lie on a voxel boundary of one grid lies mid-voxel in the other, which removes most
 /// of the count's dependence on where the grid falls.
 double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m);
-
-/// Indices of one representative point per voxel of edge voxel_m (the first in input order), so
-/// that per-point attributes (times) can be kept alongside. Order of the result: input order.
-std::vector<std::size_t> voxel_downsample_indices(const std::vector<Vec3f>& points, double voxel_m);
-
-/// The points of voxel_downsample_indices.
-std::vector<Vec3f> voxel_downsample(const std::vector<Vec3f>& points, double voxel_m);
 
 /// Local planes of a map: the points are binned into voxels of edge voxel_m; a voxel whose points
 /// are planar (smallest covariance eigenvalue below max_planarity times the middle one) becomes a

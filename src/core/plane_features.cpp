@@ -1,5 +1,7 @@
 #include "core/plane_features.hpp"
 
+#include "core/voxel_grid.hpp"
+
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
 
@@ -7,38 +9,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <unordered_set>
 
 namespace insalign {
 namespace {
-
-struct VoxelKey {
-  std::int64_t x, y, z;
-  bool operator==(const VoxelKey&) const = default;
-  bool operator<(const VoxelKey& o) const { return std::tie(x, y, z) < std::tie(o.x, o.y, o.z); }
-};
-
-struct VoxelKeyHash {
-  std::size_t operator()(const VoxelKey& k) const {
-    // Large primes (Teschner et al. 2003 spatial hashing).
-    return static_cast<std::size_t>(k.x * 73856093LL) ^ static_cast<std::size_t>(k.y * 19349669LL) ^
-           static_cast<std::size_t>(k.z * 83492791LL);
-  }
-};
-
-VoxelKey key_of(const Vec3f& p, double inv_size) {
-  return {static_cast<std::int64_t>(std::floor(p.x() * inv_size)),
-          static_cast<std::int64_t>(std::floor(p.y() * inv_size)),
-          static_cast<std::int64_t>(std::floor(p.z() * inv_size))};
-}
-
-// 21 bits per axis: +-1M voxels, far beyond any drive at metre-sized voxels.
-std::uint64_t packed_key(const VoxelKey& k) {
-  constexpr std::int64_t kOffset = 1 << 20;
-  constexpr std::uint64_t kMask = (1u << 21) - 1;
-  return ((static_cast<std::uint64_t>(k.x + kOffset) & kMask) << 42) |
-         ((static_cast<std::uint64_t>(k.y + kOffset) & kMask) << 21) | (static_cast<std::uint64_t>(k.z + kOffset) & kMask);
-}
 
 struct Moments {
   Vec3 mean = Vec3::Zero();
@@ -105,44 +78,18 @@ bool fit_plane(std::span<const Vec3f> points, std::span<const std::uint32_t> ind
   return true;
 }
 
-std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m) {
-  std::vector<std::uint32_t> kept;
-  if (voxel_m <= 0.0) {
-    kept.resize(points.size());
-    for (std::size_t i = 0; i < points.size(); ++i) kept[i] = static_cast<std::uint32_t>(i);
-    return kept;
-  }
-  const double inv = 1.0 / voxel_m;
-  // Open addressing on packed keys: several times faster than std::unordered_set per sweep.
-  std::size_t capacity = 1024;
-  while (capacity < 2 * points.size()) capacity <<= 1;
-  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
-  std::vector<std::uint64_t> table(capacity, kEmpty);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const std::uint64_t key = packed_key(key_of(points[i], inv));
-    std::size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & (capacity - 1);
-    while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
-    if (table[slot] == kEmpty) {
-      table[slot] = key;
-      kept.push_back(static_cast<std::uint32_t>(i));
-    }
-  }
-  return kept;
-}
-
-
 std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeatureConfig& config) {
   const double inv = 1.0 / config.root_voxel_m;
   // Sort point indices by root voxel so that the output order does not depend on hashing.
   struct Keyed {
     std::uint64_t key;
     std::uint32_t index;
-    VoxelKey voxel;
+    VoxelCell voxel;
   };
   std::vector<Keyed> keyed(points.size());
   tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
-    const VoxelKey k = key_of(points[i], inv);
-    keyed[i] = {packed_key(k), static_cast<std::uint32_t>(i), k};
+    const VoxelCell k = voxel_cell(points[i], inv);
+    keyed[i] = {voxel_key(k), static_cast<std::uint32_t>(i), k};
   });
   tbb::parallel_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
     return a.key < b.key || (a.key == b.key && a.index < b.index);
@@ -159,7 +106,7 @@ std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeat
     const auto [b, e] = ranges[r];
     std::vector<std::uint32_t> indices(e - b);
     for (std::size_t i = b; i < e; ++i) indices[i - b] = keyed[i].index;
-    const VoxelKey& k = keyed[b].voxel;
+    const VoxelCell& k = keyed[b].voxel;
     const Vec3 corner = Vec3(static_cast<double>(k.x), static_cast<double>(k.y), static_cast<double>(k.z)) *
                         config.root_voxel_m;
     split_recursive(points, std::move(indices), corner, config.root_voxel_m, 0, config, per_root[r]);

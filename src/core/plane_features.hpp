@@ -32,10 +32,6 @@ struct Plane {
 /// root_voxel_m cubes. Deterministic; parallel over root voxels.
 std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeatureConfig& config = {});
 
-/// Indices of one representative point per voxel_m cube (the first one met, so a kept point
-/// keeps its own timestamp). voxel_m <= 0 keeps all.
-std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m);
-
 /// Fit a plane (centre, normal, thickness) to a point set; false if fewer than 3 points.
 bool fit_plane(std::span<const Vec3f> points, std::span<const std::uint32_t> indices, Plane& plane);
 

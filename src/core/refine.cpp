@@ -62,9 +62,9 @@ Sweep reduce_sweep(const Sweep& raw, const FramePickConfig& config) {
     kept_points.push_back(raw.p_lidar[i]);
     if (raw.has_time()) kept_dt.push_back(raw.dt_s[i]);
   }
-  std::vector<std::size_t> idx = voxel_downsample_indices(kept_points, config.frame_voxel_m);
+  std::vector<std::uint32_t> idx = voxel_downsample_indices(kept_points, config.frame_voxel_m);
   if (config.max_points_per_frame > 0 && idx.size() > config.max_points_per_frame) {
-    std::vector<std::size_t> thin(config.max_points_per_frame);
+    std::vector<std::uint32_t> thin(config.max_points_per_frame);
     const double stride = static_cast<double>(idx.size()) / static_cast<double>(thin.size());
     for (std::size_t k = 0; k < thin.size(); ++k) thin[k] = idx[static_cast<std::size_t>(k * stride)];
     idx.swap(thin);

@@ -12,6 +12,7 @@
 
 #include "core/deskew.hpp"
 #include "core/plane_features.hpp"
+#include "core/voxel_grid.hpp"
 
 namespace insalign {
 

@@ -1,5 +1,7 @@
 #include "core/scan_registration.hpp"
 
+#include "core/voxel_grid.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -21,13 +23,6 @@ struct CloudAdaptor {
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>,
                                                    CloudAdaptor, 3, std::uint32_t>;
 
-std::uint64_t voxel_key(const Vec3& p, double voxel_m) {
-  // 21 bits per axis: +-1e6 voxels, far beyond any LiDAR range.
-  const auto q = [voxel_m](double v) {
-    return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v / voxel_m)) + (1 << 20)) & 0x1FFFFF;
-  };
-  return (q(p.x()) << 42) | (q(p.y()) << 21) | q(p.z());
-}
 
 // Normal of each target point from its k nearest neighbours; zero where the patch is not planar.
 std::vector<Vec3> target_normals(const std::vector<Vec3>& target, const KdTree& tree, const ScanRegistrationConfig& config) {
@@ -58,13 +53,14 @@ std::vector<Vec3> target_normals(const std::vector<Vec3>& target, const KdTree& 
 
 }  // namespace
 
-std::vector<Vec3> voxel_downsample(const std::vector<Vec3>& points, double voxel_m) {
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m) {
+  const double inv = 1.0 / voxel_m;
   std::unordered_map<std::uint64_t, std::uint32_t> slot;
   slot.reserve(points.size());
   std::vector<Vec3> sum;
   std::vector<int> count;
   for (const Vec3& p : points) {
-    auto [it, inserted] = slot.try_emplace(voxel_key(p, voxel_m), static_cast<std::uint32_t>(sum.size()));
+    auto [it, inserted] = slot.try_emplace(voxel_key(p, inv), static_cast<std::uint32_t>(sum.size()));
     if (inserted) {
       sum.push_back(p);
       count.push_back(1);

@@ -37,6 +37,6 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
                                       const ScanRegistrationConfig& config = {});
 
 /// One point per occupied voxel (the centroid), order deterministic.
-std::vector<Vec3> voxel_downsample(const std::vector<Vec3>& points, double voxel_m);
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m);
 
 }  // namespace insalign

@@ -1,0 +1,32 @@
+#include "core/voxel_grid.hpp"
+
+#include <gtest/gtest.h>
+
+namespace insalign {
+namespace {
+
+TEST(VoxelGrid, CellsFloorTowardsMinusInfinity) {
+  EXPECT_EQ(voxel_cell(Vec3(-0.01, 0.0, 0.99), 1.0), (VoxelCell{-1, 0, 0}));
+  EXPECT_EQ(voxel_cell(Vec3f(0.3f, -0.3f, 1.0f), 4.0), (VoxelCell{1, -2, 4}));
+}
+
+TEST(VoxelGrid, KeysSeparateNeighboursAndSortLikeCells) {
+  const VoxelCell a{-3, 5, 7}, b{-3, 5, 8}, c{-2, -100, 0};
+  EXPECT_NE(voxel_key(a), voxel_key(b));
+  EXPECT_LT(voxel_key(a), voxel_key(b));
+  EXPECT_LT(voxel_key(b), voxel_key(c));
+  EXPECT_EQ(voxel_key(Vec3f(0.05f, 0.05f, 0.05f), 10.0), voxel_key(Vec3(0.09, 0.01, 0.0), 10.0));
+}
+
+TEST(VoxelGrid, DownsampleKeepsTheFirstPointPerVoxelInInputOrder) {
+  const std::vector<Vec3f> pts{{0.01f, 0.01f, 0.01f}, {0.02f, 0.02f, 0.02f}, {0.3f, 0.0f, 0.0f}, {-0.01f, 0.0f, 0.0f},
+                               {0.24f, 0.24f, 0.24f}};
+  EXPECT_EQ(voxel_downsample_indices(pts, 0.25), (std::vector<std::uint32_t>{0, 2, 3}));
+  EXPECT_EQ(voxel_downsample_indices(pts, 0.0).size(), pts.size());
+  const std::vector<Vec3f> kept = voxel_downsample(pts, 0.25);
+  ASSERT_EQ(kept.size(), 3u);
+  EXPECT_EQ(kept[1], pts[2]);
+}
+
+}  // namespace
+}  // namespace insalign
