@@ -58,7 +58,9 @@ TEST(SimSweep, TimingRingsAndRanges) {
     EXPECT_TRUE(std::is_sorted(s.dt_s.begin(), s.dt_s.end()));
     EXPECT_EQ(s.name, frame_name(s.t_end_s));
     EXPECT_NEAR(std::stod(s.name), s.t_end_s, 1e-6);
-    if (k > 0) EXPECT_NEAR(s.t_end_s - sim.sweeps[k - 1].t_end_s, 0.1, 1e-6);
+    if (k > 0) {
+      EXPECT_NEAR(s.t_end_s - sim.sweeps[k - 1].t_end_s, 0.1, 1e-6);
+    }
     for (std::size_t i = 0; i < s.size(); ++i) {
       ASSERT_LT(s.ring[i], 64);
       ASSERT_GE(s.intensity[i], 0.0f);
