@@ -9,6 +9,8 @@
 #include <set>
 #include <sstream>
 
+#include "io/read_file.hpp"
+
 namespace insalign::io {
 namespace {
 
@@ -79,11 +81,7 @@ std::vector<ConfigScalar> parse_config_scalars(std::string_view yaml_text, const
 }
 
 std::vector<ConfigScalar> read_config_scalars(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), "", "cannot open the config file");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_config_scalars(ss.str(), path.string());
+  return parse_config_scalars(read_file(path), path.string());
 }
 
 std::optional<bool> config_parse_bool(const std::string& text) {

@@ -7,6 +7,7 @@
 
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 namespace insalign::io {
 
@@ -15,20 +16,9 @@ namespace {
 constexpr double kOrthonormalTolerance = 1e-3;  // OpenCalib files store 7 decimals; more is a wrong matrix
 constexpr double kLastRowTolerance = 1e-6;
 
-std::string read_text(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(path.string(), "", std::filesystem::exists(path, ec) ? "not a regular file" : "file not found");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), "", "cannot open");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 nlohmann::json parse_json(const std::filesystem::path& path) {
-  const std::string text = read_text(path);
+  const std::string text = read_file(path);
   try {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::parse_error& e) {

@@ -9,17 +9,13 @@
 
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 namespace insalign::io {
 
 std::vector<Fiducial> read_fiducials(const std::filesystem::path& path) {
   const std::string file = path.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(file, "", std::filesystem::exists(path, ec) ? "not a regular file" : "file not found");
-  }
-  std::ifstream in(path);
-  if (!in) throw InputError(file, "", "cannot open");
+  std::istringstream in(read_file(path));
   std::vector<Fiducial> out;
   std::set<std::string> ids;
   std::string line;

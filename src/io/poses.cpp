@@ -9,6 +9,7 @@
 
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
+#include "io/read_file.hpp"
 
 namespace insalign::io {
 
@@ -37,17 +38,6 @@ bool parse_double(std::string_view s, double& out) {
   return ec == std::errc() && ptr == end && std::isfinite(out);
 }
 
-std::string read_text(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(path.string(), "", std::filesystem::exists(path, ec) ? "not a regular file" : "file not found");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path.string(), "", "cannot open");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
 
 // Checks R is a rotation within tolerance and returns the nearest exact rotation.
 Mat3 checked_rotation(const Mat3& R, const std::string& file, const std::string& where, std::size_t* fixed) {
@@ -143,7 +133,7 @@ std::optional<double> time_from_frame_name(std::string_view name) {
 
 PoseFile read_pose_file(const std::filesystem::path& path) {
   const std::string file = path.string();
-  const std::string text = read_text(path);
+  const std::string text = read_file(path);
   PoseFile out;
   bool format_known = false;
   std::size_t line_no = 0, pos = 0;
