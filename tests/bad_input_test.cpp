@@ -3,8 +3,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <cstdint>
 #include <fstream>
 #include <random>
+#include <string>
 
 #include "core/errors.hpp"
 #include "io/dataset.hpp"
@@ -152,6 +154,28 @@ TEST_F(BadInput, CorruptLzfBlock) {
   for (std::size_t i = data + 8 + 50; i < b.size() - 20; i += 7) b[i] = static_cast<char>(rng());
   const fs::path p = write("z.pcd", b);
   expect_input_error([&] { read_pcd(p); }, p, "byte " + std::to_string(data + 8), "corrupt LZF");
+}
+
+TEST_F(BadInput, LyingCountsDoNotAllocateWhatTheyClaim) {
+  // Fuzzer findings: small files whose headers made the reader allocate gigabytes before noticing.
+  // binary_compressed: a 4-byte LZF block cannot expand to 4 GB (LZF inflates at most 88x).
+  const std::uint32_t n = 357913941;  // x y z floats: 4294967292 bytes
+  std::string c = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH " + std::to_string(n) +
+                  "\nHEIGHT 1\nPOINTS " + std::to_string(n) + "\nDATA binary_compressed\n";
+  const std::size_t data = c.size();
+  const std::uint32_t sizes[2] = {4, n * 12};
+  c.append(reinterpret_cast<const char*>(sizes), 8);
+  c.append(4, '\0');
+  fs::path p = write("big_lzf.pcd", c);
+  expect_input_error([&] { read_pcd(p); }, p, "byte " + std::to_string(data), "cannot hold");
+  // ascii: POINTS x COUNT claims ~10^15 values; the reservation is bounded by the data instead
+  // (before the fix: a ~170 GB reserve, std::bad_alloc instead of an InputError).
+  std::string fields = "x y z", size = "4 4 4", type = "F F F", count = "1 1 1";
+  for (int k = 0; k < 16; ++k) fields += " a", size += " 4", type += " F", count += " 65536";
+  const std::string a = "VERSION 0.7\nFIELDS " + fields + "\nSIZE " + size + "\nTYPE " + type + "\nCOUNT " + count +
+                        "\nPOINTS 2147483648\nDATA ascii\n" + std::string(40000, ' ') + "\n";
+  p = write("big_ascii.pcd", a);
+  expect_input_error([&] { read_pcd(p); }, p, "line 8", "truncated");
 }
 
 TEST_F(BadInput, NanInfPointsAreDroppedAndCounted) {

@@ -201,6 +201,31 @@ TEST(Pcd, AsciiWithIntegersFloatTimestampAndCrlf) {
   fs::remove_all(dir);
 }
 
+TEST(Pcd, NanRingKeepsThePointWithRingZero) {
+  // Fuzzer finding: a NaN ring was cast to uint16 (undefined behaviour, UBSan float-cast-overflow).
+  const fs::path dir = temp_dir("ringnan");
+  write_raw(dir / "r.pcd",
+            "VERSION 0.7\nFIELDS x y z ring\nSIZE 4 4 4 4\nTYPE F F F F\nCOUNT 1 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+            "POINTS 2\nDATA ascii\n1 2 3 nan\n4 5 6 70000\n");
+  const Sweep s = read_pcd(dir / "r.pcd");
+  ASSERT_EQ(s.size(), 2u);
+  EXPECT_EQ(s.p_lidar[0], Vec3f(1.f, 2.f, 3.f));
+  EXPECT_EQ(s.ring[0], 0);
+  EXPECT_EQ(s.ring[1], 65535);
+  fs::remove_all(dir);
+}
+
+TEST(Pcd, MaximallyCompressibleSweepStillReads) {
+  // The reader rejects LZF blocks that claim more than 88x expansion; all-zero points compress
+  // about as well as LZF can and must still load.
+  const fs::path dir = temp_dir("zeros");
+  Sweep in;
+  in.p_lidar.assign(20000, Vec3f::Zero());
+  write_pcd(dir / "z.pcd", in, PcdEncoding::kBinaryCompressed);
+  EXPECT_EQ(read_pcd(dir / "z.pcd").size(), 20000u);
+  fs::remove_all(dir);
+}
+
 TEST(Pcd, HeaderOnlyRead) {
   const fs::path dir = temp_dir("hdr");
   write_pcd(dir / "h.pcd", random_sweep(100, 3), PcdEncoding::kBinary);

@@ -24,6 +24,7 @@ namespace {
 constexpr std::size_t kMaxPoints = std::size_t{1} << 31;
 constexpr int kMaxCount = 1 << 16;
 constexpr std::size_t kHeaderProbeBytes = 64 * 1024;
+constexpr std::size_t kMaxLzfExpansion = 88;  // 264 output bytes from one 3-byte back-reference
 
 std::string at_line(std::size_t line) { return "line " + std::to_string(line); }
 std::string at_byte(std::size_t byte) { return "byte " + std::to_string(byte); }
@@ -283,7 +284,10 @@ void fill_sweep(Sweep& sweep, std::size_t n, const Layout& l, Locate&& locate, P
     if (!std::isfinite(x[i]) || !std::isfinite(y[i]) || !std::isfinite(z[i]) || !std::isfinite(ti)) continue;
     sweep.p_lidar[kept] = Vec3f(static_cast<float>(x[i]), static_cast<float>(y[i]), static_cast<float>(z[i]));
     if (l.intensity) sweep.intensity[kept] = static_cast<float>(intensity[i]);
-    if (l.ring) sweep.ring[kept] = static_cast<std::uint16_t>(std::clamp(ring[i], 0.0, 65535.0));
+    if (l.ring) {
+      // A NaN ring (float field or "nan" in ascii) has no channel; casting it would be undefined.
+      sweep.ring[kept] = std::isfinite(ring[i]) ? static_cast<std::uint16_t>(std::clamp(ring[i], 0.0, 65535.0)) : 0;
+    }
     if (l.time) {
       t_kept[kept] = ti;
       t_max = std::max(t_max, ti);
@@ -309,8 +313,10 @@ void read_ascii(Sweep& sweep, const PcdHeader& h, std::string_view data, const s
     first_element[f] = elements;
     elements += static_cast<std::size_t>(h.fields[f].count);
   }
+  // Each value takes at least one character and a separator, so the data bounds the reservation
+  // however large POINTS and COUNT claim to be.
   std::vector<double> values;
-  values.reserve(std::min(h.points, data.size() / 2 + 1) * elements);
+  values.reserve(std::min(h.points * elements, data.size() / 2 + 1));
   std::size_t pos = 0, line_no = h.header_lines, rows = 0;
   while (pos < data.size()) {
     std::size_t nl = data.find('\n', pos);
@@ -378,6 +384,13 @@ void read_binary_compressed(Sweep& sweep, const PcdHeader& h, std::string_view d
     throw InputError(file, at_byte(h.header_bytes + 4),
                      fmt::format("uncompressed size {} does not match {} points of {} bytes ({})", uncompressed,
                                  h.points, h.point_bytes, need));
+  }
+  // An LZF back-reference expands 3 bytes into at most 264, so no valid block inflates more than
+  // 88 times; refuse before allocating what a lying header asks for.
+  if (need > std::size_t{compressed} * kMaxLzfExpansion) {
+    throw InputError(file, at_byte(h.header_bytes),
+                     fmt::format("corrupt LZF block: {} compressed bytes cannot hold {} uncompressed bytes",
+                                 compressed, need));
   }
   if (compressed > data.size() - 8) {
     throw InputError(file, at_byte(h.header_bytes + data.size()),
