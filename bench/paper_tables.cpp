@@ -34,7 +34,7 @@ struct RunResult {
   std::uint64_t seed = 0;
   bool ok = false;
   std::string message;
-  Vec6 init, rough, refined, final;
+  Vec6 init = Vec6::Zero(), rough = Vec6::Zero(), refined = Vec6::Zero(), final = Vec6::Zero();
   double time_offset_err_s = 0.0;
   double seconds_init = 0, seconds_rough = 0, seconds_refine = 0, seconds_z = 0, seconds_total = 0;
 };

@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <cmath>
+#include <limits>
 #include <sstream>
 #include <vector>
 
@@ -15,14 +16,17 @@ namespace insalign {
 // well inside the target: half of it. A DOF the motion does not excite (standstill: all; no
 // turns: x, y and the rotation about the travel direction) has a formal deviation of metres or
 // degrees, far from the line.
-// Leverage test (2 mm at 2 cm / 0.1 deg): per-frame INS pose errors (~1 cm position noise, a few
+// Leverage test (0.5 mm at 2 cm / 0.1 deg): per-frame INS pose errors (~1 cm position noise, a few
 // cm of drift, ~0.01-0.03 deg attitude) move all points of a frame together, so they do not
 // average out over points and the noise test cannot see them. A DOF is only trusted if moving it
 // by the accuracy target moves the points by a clearly measurable amount. Measured leverages
-// (simulated figure-8, Pandar64): rotation and x, y move points by 1-3 cm at the target, tz by
-// about 0.1 mm (only the vehicle's ~0.7 deg of roll/pitch levers it), standstill and straight
-// drives by ~0 for the unexcited DOFs. 2 mm sits a factor ~10 from both sides. Without it, the
-// noise test declared tz determined (formal 3 mm) on a drive where the estimate was 10 cm off.
+// (simulated figure-8, Pandar64): rotation and x, y move points by 1-3 cm at the target in the
+// intersection scene, x and y by only ~2 mm in a feature-poor one (the RMS is over all points and
+// most are ground, which x and y do not move; those drives still calibrate to ~1 mm); tz by
+// 0.02-0.2 mm (only the vehicle's ~0.7 deg of roll/pitch levers it), standstill and straight
+// drives by ~0 for the unexcited DOFs. 0.5 mm sits a factor ~3 from both the weakest determined DOF
+// and tz. Without this test the noise test declared tz determined (formal 3 mm) on a
+// drive where the estimate was 10 cm off.
 
 const std::array<const char*, 6>& dof_names() {
   static const std::array<const char*, 6> names{"tx", "ty", "tz", "roll", "pitch", "yaw"};
@@ -37,7 +41,23 @@ bool DofVerdict::all_determined() const {
 
 namespace {
 
-std::string describe(const DofVerdict& v) {
+/// "tx: +-3.1 cm (limit 1 cm), a 2 cm change moves the points 1.2 mm RMS (2 mm needed)".
+std::string dof_numbers(const DofVerdict& v, int i, const ObservabilityConfig& c) {
+  const bool trans = i < 3;
+  const double unit = trans ? 100.0 : kDegPerRad;  // cm or deg
+  const char* u = trans ? "cm" : "deg";
+  std::ostringstream os;
+  os.precision(2);
+  os << dof_names()[i] << ": +-" << v.stddev_at_removal(i) * unit << ' ' << u << " (limit "
+     << (trans ? c.max_stddev_trans_m * 100.0 : c.max_stddev_rot_deg) << ' ' << u << ")";
+  if (v.shift_at_target_m(i) > 0.0) {
+    os << ", a " << (trans ? c.target_trans_m * 100.0 : c.target_rot_deg) << ' ' << u << " change moves the points "
+       << v.shift_at_target_m(i) * 1e3 << " mm RMS (" << c.min_shift_m * 1e3 << " mm needed)";
+  }
+  return os.str();
+}
+
+std::string describe(const DofVerdict& v, const ObservabilityConfig& config) {
   std::vector<int> undetermined;
   for (int i = 0; i < 6; ++i)
     if (!v.determined[i]) undetermined.push_back(i);
@@ -65,8 +85,11 @@ std::string describe(const DofVerdict& v) {
   }
   if (!v.determined[2]) {
     os << "tz: the vertical offset shows only through roll and pitch of the vehicle, which planar "
-          "driving lacks; fiducials or a height prior determine it.";
+          "driving lacks; fiducials or a height prior determine it. ";
   }
+  os << "Measured:";
+  for (std::size_t k = 0; k < undetermined.size(); ++k) os << (k ? "; " : " ") << dof_numbers(v, undetermined[k], config);
+  os << '.';
   return os.str();
 }
 
@@ -132,9 +155,14 @@ DofVerdict assess_observability(const Mat6& information, double residual_sigma_m
       break;
     }
     v.shift_at_target_m(free[worst]) = shifts[worst];  // at removal: how far from the line it was
+    if (const double c = cov(worst, worst); c > 0.0 && std::isfinite(c)) {
+      v.stddev_at_removal(free[worst]) = std::sqrt(c) * limit(free[worst]);
+    } else {
+      v.stddev_at_removal(free[worst]) = std::numeric_limits<double>::infinity();
+    }
     free.erase(free.begin() + worst);
   }
-  v.explanation = describe(v);
+  v.explanation = describe(v, config);
   return v;
 }
 

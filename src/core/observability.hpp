@@ -25,7 +25,7 @@ struct ObservabilityConfig {
   /// errors, common to all points of a frame, can mimic it however many points there are.
   double target_trans_m = 0.02;
   double target_rot_deg = 0.1;
-  double min_shift_m = 0.002;
+  double min_shift_m = 0.0005;
   /// See observability.cpp for why these values.
 };
 
@@ -38,6 +38,8 @@ struct DofVerdict {
   /// Per DOF: RMS point shift, metres, when the DOF moves by its accuracy target (others
   /// re-fitted); 0 if the residual count was not given.
   Vec6 shift_at_target_m = Vec6::Zero();
+  /// Per undetermined DOF: its standard deviation (m, rad) when it was removed; 0 otherwise.
+  Vec6 stddev_at_removal = Vec6::Zero();
   std::string explanation;           ///< human readable: which DOFs and why
 
   bool all_determined() const;
