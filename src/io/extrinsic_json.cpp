@@ -81,10 +81,10 @@ Iso3 transform_from_json(const nlohmann::json& j, const std::string& file_for_er
   }
   if (!M.allFinite()) throw InputError(file, "", "transform has a non-finite element");
   const double last_row_error = (M.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff();
-  if (last_row_error > kLastRowTolerance) throw InputError(file, "", "transform's last row is not [0, 0, 0, 1]");
+  if (!(last_row_error <= kLastRowTolerance)) throw InputError(file, "", "transform's last row is not [0, 0, 0, 1]");
   const Mat3 R = M.topLeftCorner<3, 3>();
   const double deviation = (R.transpose() * R - Mat3::Identity()).cwiseAbs().maxCoeff();
-  if (deviation > kOrthonormalTolerance) {
+  if (!(deviation <= kOrthonormalTolerance)) {
     throw InputError(file, "", fmt::format("rotation is not orthonormal (|R^T R - I| = {:.3g}, allowed {})",
                                            deviation, kOrthonormalTolerance));
   }
