@@ -36,6 +36,8 @@ struct RunResult {
   std::string message;
   Vec6 init = Vec6::Zero(), rough = Vec6::Zero(), refined = Vec6::Zero(), final = Vec6::Zero();
   double time_offset_err_s = 0.0;
+  Vec6 refine_stddev = Vec6::Zero();  // m, deg
+  double refine_offset_stddev_s = 0.0;
   double seconds_init = 0, seconds_rough = 0, seconds_refine = 0, seconds_z = 0, seconds_total = 0;
 };
 
@@ -106,6 +108,10 @@ int main(int argc, char** argv) {
       run.refined = to_vec(extrinsic_error(r.refine ? r.refine->T_ins_lidar : r.rough.T_ins_lidar, world->T_ins_lidar_true));
       run.final = to_vec(extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true));
       run.time_offset_err_s = std::abs(r.time_offset_s - config.time_offset_s);
+      if (r.refine) {
+        run.refine_stddev = r.refine->stddev;
+        run.refine_offset_stddev_s = r.refine->time_offset_stddev_s;
+      }
       run.seconds_init = r.init.wall_time_s;
       run.seconds_rough = r.rough.wall_time_s;
       run.seconds_refine = r.refine ? r.refine->wall_time_s : 0.0;
@@ -120,7 +126,13 @@ int main(int argc, char** argv) {
                "{:.1f} s (rendering included)\n",
                run.seed, run.ok ? "ok  " : "FAIL", run.final[0], run.final[1], run.final[2], run.final[3],
                run.final[4], run.final[5], run.time_offset_err_s, run.seconds_total);
-    if (!run.ok) fmt::print(stderr, "          {}\n", run.message);
+    if (run.ok) {
+      fmt::print(stderr, "          stage 2 stddev: t {:.2f} {:.2f} mm, rpy {:.4f} {:.4f} {:.4f} deg, offset {:.2f} ms\n",
+                 1e3 * run.refine_stddev[0], 1e3 * run.refine_stddev[1], run.refine_stddev[3], run.refine_stddev[4],
+                 run.refine_stddev[5], 1e3 * run.refine_offset_stddev_s);
+    } else {
+      fmt::print(stderr, "          {}\n", run.message);
+    }
     runs.push_back(run);
   }
 

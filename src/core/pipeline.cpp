@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <sstream>
 
 #include "core/errors.hpp"
@@ -95,6 +96,22 @@ CalibrationResult run_calibration(const Dataset& data, const PipelineConfig& con
   if (config.run_refine) {
     result.refine = refine_extrinsic(data, result.T_ins_lidar, result.time_offset_s, config.refine,
                                      [&](double f) { report("refine", f); });
+    const double shift_m = (result.refine->T_ins_lidar.translation() - result.T_ins_lidar.translation()).head<2>().norm();
+    const double offset_change_s = std::abs(result.refine->time_offset_s - result.time_offset_s);
+    const double explained_m = result.motion.max_speed_mps * offset_change_s + config.refine_max_unexplained_shift_m;
+    if (result.refine->time_offset_estimated && shift_m > explained_m) {
+      char buf[400];
+      std::snprintf(buf, sizeof buf,
+                    "stage 2 moved the lever arm by %.1f cm with a time offset of %+.1f ms, more than the offset "
+                    "explains (%.1f cm): this drive cannot separate the time offset from the lever arm (too few "
+                    "vertical structures?); stage 2 repeated with the offset fixed at %+.1f ms",
+                    100.0 * shift_m, 1e3 * result.refine->time_offset_s, 100.0 * explained_m, 1e3 * result.time_offset_s);
+      result.warnings.push_back(buf);
+      RefineConfig fixed_offset = config.refine;
+      fixed_offset.estimate_time_offset = false;
+      result.refine = refine_extrinsic(data, result.T_ins_lidar, result.time_offset_s, fixed_offset,
+                                       [&](double f) { report("refine", f); });
+    }
     result.T_ins_lidar = result.refine->T_ins_lidar;
     result.time_offset_s = result.refine->time_offset_s;
     for (int i = 0; i < 6; ++i) {
