@@ -23,9 +23,33 @@ std::string format_spread(const Vec6& spread) {
   return os.str();
 }
 
+// Stage 2, checked: it may move the horizontal lever arm only as far as its change of the time
+// offset explains (the map shifts by speed x offset along the travel) plus stage 1's accuracy.
+// Further means the drive cannot separate the offset from the lever arm (a feature-poor drive
+// traded 10 ms for 18 cm): stage 2 again with the offset fixed, and a warning says so.
+RefineResult refine_checked(const Dataset& data, const Iso3& T_ins_lidar_rough, double time_offset_start_s,
+                            double max_speed_mps, const PipelineConfig& config,
+                            const std::function<void(double)>& progress, std::string& warning) {
+  RefineResult refine = refine_extrinsic(data, T_ins_lidar_rough, time_offset_start_s, config.refine, progress);
+  const double shift_m = (refine.T_ins_lidar.translation() - T_ins_lidar_rough.translation()).head<2>().norm();
+  const double explained_m =
+      max_speed_mps * std::abs(refine.time_offset_s - time_offset_start_s) + config.refine_max_unexplained_shift_m;
+  if (!refine.time_offset_estimated || shift_m <= explained_m) return refine;
+  char buf[400];
+  std::snprintf(buf, sizeof buf,
+                "stage 2 moved the lever arm by %.1f cm with a time offset of %+.1f ms, more than the offset "
+                "explains (%.1f cm): this drive cannot separate the time offset from the lever arm (too few "
+                "vertical structures?); stage 2 repeated with the offset fixed at %+.1f ms",
+                100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * time_offset_start_s);
+  warning = buf;
+  RefineConfig fixed_offset = config.refine;
+  fixed_offset.estimate_time_offset = false;
+  return refine_extrinsic(data, T_ins_lidar_rough, time_offset_start_s, fixed_offset, progress);
+}
+
 // Stages 1 and 2 on one segment, from the pipeline's start; failures are results, not errors.
 SegmentResult calibrate_segment(const Dataset& segment, const Iso3& T_ins_lidar_start, double time_offset_start_s,
-                                const PipelineConfig& config) {
+                                double max_speed_mps, const PipelineConfig& config) {
   SegmentResult out;
   out.frames = segment.frames.frames.size();
   out.t_begin_s = segment.frames.frames.front().t_end_s;
@@ -39,7 +63,9 @@ SegmentResult calibrate_segment(const Dataset& segment, const Iso3& T_ins_lidar_
     out.T_ins_lidar = rough.T_ins_lidar;
     out.time_offset_s = time_offset_start_s;
     if (config.run_refine) {
-      const RefineResult refine = refine_extrinsic(segment, rough.T_ins_lidar, time_offset_start_s, config.refine);
+      std::string warning;  // the segments' spread is the verdict here
+      const RefineResult refine =
+          refine_checked(segment, rough.T_ins_lidar, time_offset_start_s, max_speed_mps, config, {}, warning);
       out.T_ins_lidar = refine.T_ins_lidar;
       out.time_offset_s = refine.time_offset_s;
     }
@@ -94,24 +120,10 @@ CalibrationResult run_calibration(const Dataset& data, const PipelineConfig& con
 
   // 3. Stage 2.
   if (config.run_refine) {
-    result.refine = refine_extrinsic(data, result.T_ins_lidar, result.time_offset_s, config.refine,
-                                     [&](double f) { report("refine", f); });
-    const double shift_m = (result.refine->T_ins_lidar.translation() - result.T_ins_lidar.translation()).head<2>().norm();
-    const double offset_change_s = std::abs(result.refine->time_offset_s - result.time_offset_s);
-    const double explained_m = result.motion.max_speed_mps * offset_change_s + config.refine_max_unexplained_shift_m;
-    if (result.refine->time_offset_estimated && shift_m > explained_m) {
-      char buf[400];
-      std::snprintf(buf, sizeof buf,
-                    "stage 2 moved the lever arm by %.1f cm with a time offset of %+.1f ms, more than the offset "
-                    "explains (%.1f cm): this drive cannot separate the time offset from the lever arm (too few "
-                    "vertical structures?); stage 2 repeated with the offset fixed at %+.1f ms",
-                    100.0 * shift_m, 1e3 * result.refine->time_offset_s, 100.0 * explained_m, 1e3 * result.time_offset_s);
-      result.warnings.push_back(buf);
-      RefineConfig fixed_offset = config.refine;
-      fixed_offset.estimate_time_offset = false;
-      result.refine = refine_extrinsic(data, result.T_ins_lidar, result.time_offset_s, fixed_offset,
-                                       [&](double f) { report("refine", f); });
-    }
+    std::string warning;
+    result.refine = refine_checked(data, result.T_ins_lidar, result.time_offset_s, result.motion.max_speed_mps, config,
+                                   [&](double f) { report("refine", f); }, warning);
+    if (!warning.empty()) result.warnings.push_back(warning);
     result.T_ins_lidar = result.refine->T_ins_lidar;
     result.time_offset_s = result.refine->time_offset_s;
     for (int i = 0; i < 6; ++i) {
@@ -140,7 +152,7 @@ CalibrationResult run_calibration(const Dataset& data, const PipelineConfig& con
       report("repeatability", static_cast<double>(s) / k);
       const Dataset segment = frame_subset(data, s * n_frames / k, (s + 1) * n_frames / k);
       if (segment.frames.frames.empty()) continue;
-      result.segments.push_back(calibrate_segment(segment, result.init.T_ins_lidar, 0.0, segment_config));
+      result.segments.push_back(calibrate_segment(segment, result.init.T_ins_lidar, 0.0, result.motion.max_speed_mps, segment_config));
     }
     report("repeatability", 1.0);
     Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
