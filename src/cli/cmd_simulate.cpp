@@ -2,6 +2,7 @@
 // OpenCalib layout (CONVENTIONS.md), frame by frame so memory stays bounded.
 #include <fmt/core.h>
 #include <tbb/parallel_for.h>
+#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 
 #include <atomic>
@@ -195,7 +196,10 @@ int run_simulate(SimulateOptions& o) {
   // Frames in parallel (each also casts its columns in parallel); one sweep per worker in memory.
   // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
   // another that is ray casting.
-  tbb::task_arena arena(static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency())));
+  const int threads = static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency()));
+  // TBB caps its workers at the core count unless told otherwise (and says so on stderr).
+  const tbb::global_control allow_threads(tbb::global_control::max_allowed_parallelism, threads);
+  tbb::task_arena arena(threads);
   arena.execute([&] {
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
     const Sweep sweep = sim::render_sweep(world, k);
