@@ -231,12 +231,7 @@ BENCHMARK(BM_RoughPointPlaneSystem)->Unit(benchmark::kMillisecond)->UseRealTime(
 // the continuous method fit), with the stage's default plane parameters.
 void BM_PlaneThicknessStage2Map(benchmark::State& state) {
   const std::vector<Vec3f>& map = stage2_map();
-  const RefineConfig refine;
-  PlaneThicknessConfig config;
-  config.voxel_m = refine.plane_voxel_m;
-  config.min_voxel_m = refine.plane_voxel_min_m;
-  config.min_points = refine.plane_min_points;
-  config.max_planarity = refine.plane_max_planarity;
+  const PlaneThicknessConfig config = plane_thickness_config(RefineConfig{});
   PlaneThickness result;
   for (auto _ : state) {
     result = plane_thickness(map, config);

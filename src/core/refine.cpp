@@ -192,14 +192,6 @@ struct NormalEquations {
   }
 };
 
-PlaneThicknessConfig plane_config(const RefineConfig& c) {
-  PlaneThicknessConfig pc;
-  pc.voxel_m = c.plane_voxel_m;
-  pc.min_voxel_m = c.plane_voxel_min_m;
-  pc.min_points = c.plane_min_points;
-  pc.max_planarity = c.plane_max_planarity;
-  return pc;
-}
 
 // Point-to-plane normal equations of the stitched map against its own local planes: at a fixed
 // set of planes this is the gradient of the BALM smallest-eigenvalue cost.
@@ -230,7 +222,7 @@ NormalEquations build_normal_equations(const Problem& p, const State& s, const R
                                        std::vector<Vec3f>& p_world, LocalPlanes& lp) {
   place_all(p, s, p_world);
   if (lp.planes.empty()) {
-    lp = fit_local_planes(p_world, plane_config(config));
+    lp = fit_local_planes(p_world, plane_thickness_config(config));
   } else {
     refit_planes(p_world, lp);
   }
@@ -433,6 +425,15 @@ State gauss_newton(const Problem& p, const State& start, const RefineConfig& con
 }
 
 }  // namespace
+
+PlaneThicknessConfig plane_thickness_config(const RefineConfig& c) {
+  PlaneThicknessConfig pc;
+  pc.voxel_m = c.plane_voxel_m;
+  pc.min_voxel_m = c.plane_voxel_min_m;
+  pc.min_points = c.plane_min_points;
+  pc.max_planarity = c.plane_max_planarity;
+  return pc;
+}
 
 std::vector<std::size_t> pick_refine_frames(const Dataset& data, const FramePickConfig& config,
                                             double time_offset_s, double margin_s) {

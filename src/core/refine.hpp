@@ -10,6 +10,7 @@
 
 #include "core/dataset.hpp"
 #include "core/geometry.hpp"
+#include "core/occupancy.hpp"
 
 namespace insalign {
 
@@ -104,6 +105,9 @@ struct RefineResult {
   std::vector<RefineRound> rounds;
   double wall_time_s = 0.0;
 };
+
+/// The local-plane parameters of kContinuous as the crispness measure's config.
+PlaneThicknessConfig plane_thickness_config(const RefineConfig& config);
 
 /// Refines T_ins_lidar (and the time offset) from a start close to the truth (stage 1 output,
 /// within about 0.5 deg and 5 cm). Throws UnobservableError if too few frames move.
