@@ -1,6 +1,8 @@
 // The whole pipeline on a short simulated drive: each stage must earn its place.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/pipeline.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
@@ -19,7 +21,7 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
   const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
   const Dataset data = sim::world_dataset(world);  // starts from the simulator's 20 deg / 0.5 m guess
   PipelineConfig config;
-  config.repeatability_segments = 0;
+  config.repeatability_segments = 2;
   const CalibrationResult r = run_calibration(data, config);
   ASSERT_TRUE(r.refine.has_value());
   const ExtrinsicError rough = extrinsic_error(r.rough.T_ins_lidar, world->T_ins_lidar_true);
@@ -29,7 +31,12 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
   EXPECT_LT(refined.drpy_deg.maxCoeff(), 0.03);
   EXPECT_NEAR(r.time_offset_s, sc.time_offset_s, 0.002);
   for (const std::string& w : r.warnings) EXPECT_EQ(w.find("stage 2 moved"), std::string::npos) << w;
-  std::printf("rough: %.1f mm, %.4f deg; refined: %.1f mm, %.4f deg; offset %.2f ms\n",
+  // The reported stddev is never below what the segments' disagreement shows.
+  ASSERT_EQ(r.segments.size(), 2u);
+  ASSERT_TRUE(r.segments[0].ok && r.segments[1].ok) << r.segments[0].message << r.segments[1].message;
+  for (int i : {0, 1, 3, 4, 5}) EXPECT_GE(r.stddev[i], r.segment_spread[i] / (1.128 * std::sqrt(2.0)) - 1e-12) << i;
+  std::printf("segments ok: %d %d; rough: %.1f mm, %.4f deg; refined: %.1f mm, %.4f deg; offset %.2f ms\n",
+              int(r.segments[0].ok), int(r.segments[1].ok),
               1e3 * rough.dt_m.head<2>().norm(), rough.angle_deg, 1e3 * refined.dt_m.head<2>().norm(),
               refined.angle_deg, 1e3 * r.time_offset_s);
 }

@@ -60,7 +60,9 @@ struct CalibrationResult {
   double time_offset_s = 0.0;           ///< t_ins = t_lidar + time_offset_s
   /// Final verdict per DOF [tx ty tz roll pitch yaw]: tz determined only by stage 3.
   std::array<bool, 6> determined{};
-  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::quiet_NaN());  ///< m, deg
+  /// m, deg: the larger of the formal value (stage information) and, with the repeatability
+  /// study, the segments' spread scaled to the whole drive.
+  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::quiet_NaN());
   std::vector<SegmentResult> segments;
   Vec6 segment_spread = Vec6::Zero();   ///< max - min over segments that succeeded, m / deg
   std::vector<std::string> warnings;
