@@ -152,7 +152,8 @@ CalibrationResult run_calibration(const Dataset& data, const PipelineConfig& con
       report("repeatability", static_cast<double>(s) / k);
       const Dataset segment = frame_subset(data, s * n_frames / k, (s + 1) * n_frames / k);
       if (segment.frames.frames.empty()) continue;
-      result.segments.push_back(calibrate_segment(segment, result.init.T_ins_lidar, 0.0, result.motion.max_speed_mps, segment_config));
+      result.segments.push_back(
+          calibrate_segment(segment, result.init.T_ins_lidar, 0.0, result.motion.max_speed_mps, segment_config));
     }
     report("repeatability", 1.0);
     Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);

@@ -26,10 +26,8 @@ struct PipelineConfig {
   RefineConfig refine;
   ZConfig z;
   bool run_refine = true;                  ///< stage 2 (false: stop after stage 1)
-  /// Stage 2 may move the horizontal lever arm only as far as its change of the time offset
-  /// explains (max speed x offset change: the map shifts along the travel) plus this, stage 1's
-  /// accuracy bound. Beyond it the drive cannot separate the offset from the lever arm (few
-  /// vertical structures seen while turning): stage 2 is run again with the offset fixed.
+  /// Stage 2 may move the horizontal lever arm by max speed x its time-offset change plus this
+  /// (stage 1's accuracy bound); beyond, it is run again with the offset fixed (pipeline.cpp).
   double refine_max_unexplained_shift_m = 0.03;
   std::optional<double> ins_height_m;      ///< INS origin height above the ground, for stage 3
   /// Disjoint time segments of the drive calibrated on their own (stages 1 and 2, from the same
