@@ -182,6 +182,9 @@ std::vector<P> build_table() {
   std::vector<P> t;
   // Pipeline.
   t.push_back(field("calibrate.run_refine", "run stage 2 (false: stop after stage 1)", INSALIGN_AT(calibrate.run_refine)));
+  t.push_back(field("calibrate.refine_max_unexplained_shift_m",
+                    "stage 2 may move x, y by max speed x its time-offset change plus this, else it reruns with the offset fixed, m",
+                    INSALIGN_AT(calibrate.refine_max_unexplained_shift_m)));
   t.push_back(field("calibrate.ins_height_m", "INS origin height above the ground for stage 3 when there are no fiducials, m (null: unknown)",
                     INSALIGN_AT(calibrate.ins_height_m)));
   t.push_back(field("calibrate.repeatability_segments", "disjoint drive segments calibrated on their own to show the spread (0 or 1: off)",
@@ -254,6 +257,9 @@ std::vector<P> build_table() {
                     INSALIGN_AT(calibrate.rough.observability.max_stddev_trans_m)));
   t.push_back(field("rough.observability.max_stddev_rot_deg", "a rotation DOF is determined below this standard deviation, deg",
                     INSALIGN_AT(calibrate.rough.observability.max_stddev_rot_deg)));
+  t.push_back(field("rough.observability.min_shift_m",
+                    "a DOF is determined only if changing it by the accuracy target moves the points this much RMS, m",
+                    INSALIGN_AT(calibrate.rough.observability.min_shift_m)));
 
   // Stage 2.
   t.push_back(enumeration("refine.method", "crispness measure: continuous (plane thickness, Gauss-Newton) or occupancy_grid (the paper)",
