@@ -77,7 +77,8 @@ std::string describe(const DofVerdict& v, const ObservabilityConfig& config) {
     os << "The scene shows planes of too few orientations (e.g. only the ground): nothing constrains "
           "horizontal shifts or the rotation about the vertical. ";
   } else if (txy) {
-    os << "Too little turning: the horizontal lever arm is only seen when the heading changes. ";
+    os << "The horizontal lever arm shows only when vertical surfaces (walls, poles) are seen from "
+          "different headings: too little turning, or too little but ground in view. ";
   }
   if (any_rot && !( txy && !v.determined[5] && v.determined[3] && v.determined[4])) {
     os << "Rotation about an axis the motion never changes (driving straight leaves the rotation "
