@@ -3,7 +3,7 @@
 // paper's rows beside ours, the worst run and the convergence rate.
 //
 //   build/bench/paper_tables --seeds 30 [--scenario default|recorded|feature-poor|time-offset|hdl32|os1-64|no-init]
-//                            [--no-init] [--fixed-time-offset]
+//                            [--no-init] [--fixed-time-offset] [--set key=value ...]
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <sys/resource.h>
@@ -14,6 +14,7 @@
 
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
+#include "io/config_file.hpp"
 #include "io/poses.hpp"
 #include "sim/world_dataset.hpp"
 
@@ -70,13 +71,23 @@ int main(int argc, char** argv) {
   bool no_init = false, fixed_offset = false;
   app.add_flag("--fixed-time-offset", fixed_offset, "stage 2 keeps the time offset at 0 (clocks known to be synchronised)");
   app.add_flag("--no-init", no_init, "drop the initial guess (combines with any scenario; --scenario no-init = default scene)");
+  std::vector<std::string> assignments;
+  app.add_option("--set", assignments, "override a parameter, e.g. refine.frames.max_frames=240 or sim.ins_noise_scale=0 "
+                                       "(keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
+  io::ToolConfig tool;
+  try {
+    for (const std::string& a : assignments) io::apply_config_assignment(io::tool_config_params(), a, "--set", tool);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    return 2;
+  }
   if (no_init) use_init = false;
   if (trajectory_file.empty()) trajectory_file = "../shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt";
 
   std::vector<RunResult> runs;
   for (int s = 0; s < seeds; ++s) {
-    sim::SimConfig config;
+    sim::SimConfig config = tool.sim;  // --set sim.* applies; the scenario and options below win
     config.seed = first_seed + s;
     config.azimuth_step_deg = azimuth_step_deg;
     config.duration_s = duration_s;
@@ -98,7 +109,7 @@ int main(int argc, char** argv) {
     Dataset data = sim::world_dataset(world);
     if (!use_init) data.T_ins_lidar_init.reset();
 
-    PipelineConfig pipeline;
+    PipelineConfig pipeline = tool.calibrate;
     pipeline.repeatability_segments = 0;
     pipeline.refine.estimate_time_offset = !fixed_offset;
     RunResult run;
