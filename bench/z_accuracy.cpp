@@ -7,6 +7,7 @@
 // not the ray caster (a PCD decode would add its own time).
 //
 //   build/bench/z_accuracy --seeds 10 [--duration-s 0]
+//   build/bench/z_accuracy --floor-only 1000   # the floor alone, no rendering
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
@@ -60,7 +61,29 @@ int main(int argc, char** argv) {
   double duration_s = 0.0;
   app.add_option("--seeds", seeds, "number of seeds (1..N)");
   app.add_option("--duration-s", duration_s, "truncate the drive (0 = the full figure-8)");
+  int floor_seeds = 0;
+  app.add_option("--floor-only", floor_seeds,
+                 "only the INS floor (no rendering) over this many drives: how often a perfect fiducial method "
+                 "would miss 2 cm");
   CLI11_PARSE(app, argc, argv);
+  if (floor_seeds > 0) {
+    int over = 0;
+    double sum_sq = 0.0;
+    for (int seed = 1; seed <= floor_seeds; ++seed) {
+      sim::SimConfig config;
+      config.seed = static_cast<std::uint64_t>(seed);
+      config.duration_s = duration_s;
+      const sim::World world = sim::build_world(config);
+      double floor_m = 0.0;
+      for (double t : world.frame_times_s) floor_m -= world.drift.at(t + config.time_offset_s).z();
+      floor_m /= static_cast<double>(world.frame_times_s.size());
+      sum_sq += floor_m * floor_m;
+      over += std::abs(floor_m) > 0.02;
+    }
+    fmt::print("INS floor over {} drives: RMS {:.1f} mm, over 2 cm in {} ({:.1f}%)\n", floor_seeds,
+               1e3 * std::sqrt(sum_sq / floor_seeds), over, 100.0 * over / floor_seeds);
+    return 0;
+  }
 
   std::vector<double> floors_m;  // |INS floor| per seed: the error of a perfect fiducial method
   Case plane{"fiducials, local plane"}, nn{"fiducials, nearest neighbour"}, outlier{"fiducials, one 0.5 m off"},
