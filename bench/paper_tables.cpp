@@ -2,7 +2,7 @@
 // random true mount, random 20 deg / 0.5 m initial error), the error after each stage, the
 // paper's rows beside ours, the worst run and the convergence rate.
 //
-//   build/bench/paper_tables --seeds 30 [--scenario default|recorded|feature-poor|time-offset|hdl32|os1-64|no-init]
+//   build/bench/paper_tables --seeds 30 [--scenario default|recorded|feature-poor|time-offset|hdl32|os1-64|vlp16|no-init]
 //                            [--no-init] [--fixed-time-offset] [--set key=value ...]
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
   bool use_init = true;
   app.add_option("--seeds", seeds, "number of simulated drives")->capture_default_str();
   app.add_option("--first-seed", first_seed)->capture_default_str();
-  app.add_option("--scenario", scenario, "default, recorded, feature-poor, time-offset, hdl32, os1-64, no-init")
+  app.add_option("--scenario", scenario, "default, recorded, feature-poor, time-offset, hdl32, os1-64, vlp16, no-init")
       ->capture_default_str();
   app.add_option("--trajectory", trajectory_file, "pose file for --scenario recorded")
       ->default_str("../shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt");
@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
     if (scenario == "feature-poor") config.scene = sim::SceneKind::kFeaturePoor;
     if (scenario == "hdl32") config.lidar_model = "hdl32";
     if (scenario == "os1-64") config.lidar_model = "os1-64";
+    if (scenario == "vlp16") config.lidar_model = "vlp16";
     if (scenario == "time-offset") config.time_offset_s = std::uniform_real_distribution<double>(-0.05, 0.05)(rng);
     if (scenario == "no-init") use_init = false;
     if (scenario == "recorded") {

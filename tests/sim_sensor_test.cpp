@@ -39,6 +39,12 @@ TEST(SimLidarModel, BeamTables) {
   EXPECT_NEAR(o.elevation_deg.front(), 16.6, 1e-9);
   EXPECT_NEAR(o.elevation_deg.back(), -16.6, 1e-9);
 
+  const LidarModel v = lidar_model("vlp16");
+  ASSERT_EQ(v.elevation_deg.size(), 16u);
+  EXPECT_NEAR(v.elevation_deg.front(), 15.0, 1e-9);
+  EXPECT_NEAR(v.elevation_deg.back(), -15.0, 1e-9);
+
+  for (const std::string& name : lidar_model_names()) EXPECT_EQ(lidar_model(name).name, name);
   EXPECT_THROW(lidar_model("vlp16x"), std::invalid_argument);
 }
 

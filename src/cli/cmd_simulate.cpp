@@ -254,7 +254,7 @@ Command make_simulate_command() {
     sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
         ->capture_default_str();
     sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
-    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64")
+    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64 | vlp16")
         ->check(CLI::IsMember(sim::lidar_model_names()))
         ->capture_default_str();
     sub->add_option("--azimuth-step-deg", c.azimuth_step_deg, "horizontal resolution")

@@ -324,7 +324,7 @@ std::vector<P> build_table() {
   t.push_back(field("sim.figure8_loops", "loops of the figure-8", INSALIGN_AT(sim.figure8_loops)));
   t.push_back(field("sim.speed_kmh", "cruise speed, km/h", INSALIGN_AT(sim.speed_kmh)));
   t.push_back(field("sim.duration_s", "0: the trajectory's natural length; > 0 truncates, s", INSALIGN_AT(sim.duration_s)));
-  t.push_back(field("sim.lidar_model", "pandar64, hdl32 or os1-64", INSALIGN_AT(sim.lidar_model)));
+  t.push_back(field("sim.lidar_model", "pandar64, hdl32, os1-64 or vlp16", INSALIGN_AT(sim.lidar_model)));
   t.push_back(field("sim.azimuth_step_deg", "horizontal resolution, deg", INSALIGN_AT(sim.azimuth_step_deg)));
   t.push_back(field("sim.frame_rate_hz", "spin rate, one frame per revolution, Hz", INSALIGN_AT(sim.frame_rate_hz)));
   t.push_back(field("sim.range_noise_m", "range noise sigma along the ray, m", INSALIGN_AT(sim.range_noise_m)));

@@ -90,7 +90,8 @@ std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, co
       const auto hit = scene.cast(Vec3(xy.x(), xy.y(), zg + 30.0), -Vec3::UnitZ(), 100.0);
       if (!hit || std::abs(hit->range_m - 30.0) > 0.01) continue;
       Fiducial f;
-      f.id = "F" + std::to_string(k + 1);
+      f.id = std::to_string(k + 1);
+      f.id.insert(f.id.begin(), 'F');  // not "F" + ...: GCC 12 warns falsely (-Wrestrict)
       f.p_world = Vec3(xy.x(), xy.y(), zg) +
                   Vec3(rng.normal(c.fiducial_noise_m), rng.normal(c.fiducial_noise_m), rng.normal(c.fiducial_noise_m));
       out.push_back(f);
@@ -114,13 +115,21 @@ LidarModel lidar_model(const std::string& name) {
     for (int i = 0; i < 32; ++i) m.elevation_deg.push_back(10.67 - i * (41.34 / 31.0));
   } else if (name == "os1-64") {
     for (int i = 0; i < 64; ++i) m.elevation_deg.push_back(16.6 - i * (33.2 / 63.0));
+  } else if (name == "vlp16") {
+    // 16 rings 2 deg apart: few rings on the ground and on each wall, the sparsest common sensor.
+    for (int i = 0; i < 16; ++i) m.elevation_deg.push_back(15.0 - 2.0 * i);
   } else {
-    throw std::invalid_argument("unknown LiDAR model '" + name + "' (pandar64, hdl32, os1-64)");
+    std::string names;
+    for (const std::string& n : lidar_model_names()) {
+      if (!names.empty()) names += ", ";
+      names += n;
+    }
+    throw std::invalid_argument("unknown LiDAR model '" + name + "' (" + names + ")");
   }
   return m;
 }
 
-std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64"}; }
+std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64", "vlp16"}; }
 
 Vec3 InsDrift::at(double t_s) const {
   if (knots_m.empty()) return Vec3::Zero();

@@ -35,7 +35,7 @@ struct SimConfig {
   int figure8_loops = 3;            ///< kFigure8: loops of the figure-8 (~1000 frames at 15 km/h)
   double speed_kmh = 15.0;          ///< cruise speed (kFigure8, kStraight)
   double duration_s = 0;            ///< 0 = the trajectory's natural length; >0 truncates
-  std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64"
+  std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64", "vlp16"
   double azimuth_step_deg = 0.2;    ///< horizontal resolution (1800 columns per turn)
   double frame_rate_hz = 10.0;      ///< spin rate; one frame per revolution
   double range_noise_m = 0.02;      ///< Gaussian sigma along the ray
