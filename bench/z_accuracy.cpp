@@ -16,6 +16,7 @@
 #include <random>
 
 #include "core/zcorrect.hpp"
+#include "io/config_file.hpp"
 #include "sim/world_dataset.hpp"
 
 namespace insalign {
@@ -65,12 +66,22 @@ int main(int argc, char** argv) {
   app.add_option("--floor-only", floor_seeds,
                  "only the INS floor (no rendering) over this many drives: how often a perfect fiducial method "
                  "would miss 2 cm");
+  std::vector<std::string> assignments;
+  app.add_option("--set", assignments, "override a parameter, e.g. sim.lidar_model=vlp16 or z.search_radius_m=1 "
+                                       "(keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
+  io::ToolConfig tool;
+  try {
+    for (const std::string& a : assignments) io::apply_config_assignment(io::tool_config_params(), a, "--set", tool);
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    return 2;
+  }
   if (floor_seeds > 0) {
     int over = 0;
     double sum_sq = 0.0;
     for (int seed = 1; seed <= floor_seeds; ++seed) {
-      sim::SimConfig config;
+      sim::SimConfig config = tool.sim;
       config.seed = static_cast<std::uint64_t>(seed);
       config.duration_s = duration_s;
       const sim::World world = sim::build_world(config);
@@ -89,7 +100,7 @@ int main(int argc, char** argv) {
   Case plane{"fiducials, local plane"}, nn{"fiducials, nearest neighbour"}, outlier{"fiducials, one 0.5 m off"},
       height{"ins height (+-1 cm)"};
   for (int seed = 1; seed <= seeds; ++seed) {
-    sim::SimConfig config;
+    sim::SimConfig config = tool.sim;
     config.seed = static_cast<std::uint64_t>(seed);
     config.duration_s = duration_s;
     auto world = std::make_shared<const sim::World>(sim::build_world(config));
@@ -120,17 +131,18 @@ int main(int argc, char** argv) {
     floor_m /= static_cast<double>(world->frame_times_s.size());
     floors_m.push_back(std::abs(floor_m));
 
-    ZConfig nn_config;
+    const ZConfig& z_config = tool.calibrate.z;
+    ZConfig nn_config = z_config;
     nn_config.match = FiducialMatch::kNearestNeighbour;
     correct_z(data, T_start, offset, std::nullopt, nn_config);  // warm-up: renders the frames
-    const ZResult r_plane = correct_z(data, T_start, offset, std::nullopt);
+    const ZResult r_plane = correct_z(data, T_start, offset, std::nullopt, z_config);
     const ZResult r_nn = correct_z(data, T_start, offset, std::nullopt, nn_config);
     add(plane, r_plane, T_true, floor_m);
     add(nn, r_nn, T_true, floor_m);
 
     Dataset bad = data;
     bad.fiducials[0].p_world.z() += 0.5;
-    const ZResult r_out = correct_z(bad, T_start, offset, std::nullopt);
+    const ZResult r_out = correct_z(bad, T_start, offset, std::nullopt, z_config);
     add(outlier, r_out, T_true, floor_m);
     if (!r_out.fiducials.empty() && !r_out.fiducials[0].used) ++outlier.outlier_flagged;
 
@@ -138,8 +150,8 @@ int main(int argc, char** argv) {
     const double h = world->ins_height_m + 0.01 * std::normal_distribution<double>(0.0, 1.0)(rng);
     Dataset no_fid = data;
     no_fid.fiducials.clear();
-    correct_z(no_fid, T_start, offset, h);  // warm-up
-    const ZResult r_h = correct_z(no_fid, T_start, offset, h);
+    correct_z(no_fid, T_start, offset, h, z_config);  // warm-up
+    const ZResult r_h = correct_z(no_fid, T_start, offset, h, z_config);
     add(height, r_h, T_true, 0.0);
     fmt::print("seed {:>2}: INS floor {:+.1f} mm | plane {:+.1f} mm, nn {:+.1f} mm, outlier {:+.1f} mm (F0 {}), height {:+.1f} mm "
                "[{} / {} frames loaded]\n",
@@ -150,6 +162,10 @@ int main(int argc, char** argv) {
                1e3 * (r_h.T_ins_lidar.translation().z() - T_true.translation().z()), r_plane.frames_loaded,
                r_h.frames_loaded);
     if (!r_plane.determined) fmt::print("  plane: {}\n", r_plane.explanation);
+    for (const FiducialResidual& f : r_plane.fiducials) {
+      fmt::print("  {} {:>4} points, residual {:+.1f} mm{}\n", f.id, f.map_points, 1e3 * f.residual_after_m,
+                 f.used ? "" : " (rejected: " + f.reason_rejected + ")");
+    }
     if (!r_h.determined) fmt::print("  height: {}\n", r_h.explanation);
   }
   fmt::print("\nmean/max mm: |tz error|; beyond floor: |tz error + drive-mean INS z error| (the part the method adds)\n");

@@ -57,9 +57,15 @@ struct GroundDrive {
   Iso3 T_ins_lidar_true = Iso3::Identity();
 };
 
-/// duration_s of frames at 10 Hz; 16 beams from -24 to -2 deg every 1 deg of azimuth, 2 cm range
-/// noise. Poses at 100 Hz with 5 mm position and 0.005 deg attitude noise.
-GroundDrive make_drive(std::uint64_t seed, double duration_s = 25.0) {
+/// The LiDAR's downward beams.
+struct Beams {
+  int count = 16;
+  double lowest_deg = -24.0, step_deg = 22.0 / 15.0;
+};
+
+/// duration_s of frames at 10 Hz; by default 16 beams from -24 to -2 deg every 1 deg of azimuth,
+/// 2 cm range noise. Poses at 100 Hz with 5 mm position and 0.005 deg attitude noise.
+GroundDrive make_drive(std::uint64_t seed, double duration_s = 25.0, Beams beams = {}) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n01(0.0, 1.0);
   GroundDrive drive;
@@ -76,7 +82,7 @@ GroundDrive make_drive(std::uint64_t seed, double duration_s = 25.0) {
     poses.push_back({t, T});
   }
   drive.data.poses = PoseStream(std::move(poses));
-  const int n_beams = 16, n_columns = 360;
+  const int n_columns = 360;
   std::vector<Sweep> sweeps;
   for (double t_end = 0.1; t_end <= duration_s + 1e-9; t_end += 0.1) {
     Sweep sweep;
@@ -86,8 +92,8 @@ GroundDrive make_drive(std::uint64_t seed, double duration_s = 25.0) {
       const double dt = -0.1 + 0.1 * (c + 1) / n_columns;
       const Iso3 T_world_lidar = true_T_world_ins(t_end + dt) * drive.T_ins_lidar_true;
       const double az = 2.0 * M_PI * c / n_columns;
-      for (int b = 0; b < n_beams; ++b) {
-        const double el = (-24.0 + 22.0 * b / (n_beams - 1)) * kRadPerDeg;
+      for (int b = 0; b < beams.count; ++b) {
+        const double el = (beams.lowest_deg + beams.step_deg * b) * kRadPerDeg;
         const Vec3 d_lidar(std::cos(el) * std::cos(az), std::cos(el) * std::sin(az), std::sin(el));
         const double s = scene.cast(T_world_lidar.translation(), T_world_lidar.linear() * d_lidar);
         if (!(s < 60.0)) continue;
@@ -186,8 +192,31 @@ TEST(ZCorrect, FewerThanThreeUsableFiducialsIsNotDetermined) {
   EXPECT_NE(r.explanation.find("F1"), std::string::npos) << r.explanation;
   EXPECT_NE(r.explanation.find("F4"), std::string::npos) << r.explanation;
   EXPECT_NE(r.explanation.find("initial value"), std::string::npos) << r.explanation;
-  EXPECT_FALSE(r.fiducials[0].used);
-  EXPECT_FALSE(r.fiducials[0].reason_rejected.empty());
+  for (const FiducialResidual& f : r.fiducials) {
+    EXPECT_FALSE(f.used);
+    EXPECT_FALSE(f.reason_rejected.empty()) << f.id;  // the measured ones too: why they were not used
+  }
+}
+
+// A LiDAR with 2 deg between rings (VLP-16: the lowest at -15 deg; here 2 m above the ground)
+// meets the ground only on circles 7.5 m and farther out, so most of the nearest frames see
+// nothing at a fiducial. Stage 3 then takes farther frames for it until enough of them see it.
+TEST(ZCorrect, SparseRingsStillSeeTheFiducials) {
+  const GroundDrive drive = make_drive(17, 25.0, Beams{.count = 8, .lowest_deg = -15.0, .step_deg = 2.0});
+  const Iso3 T_start = stage2_like(drive.T_ins_lidar_true);
+  ZConfig one_round;  // at most frames_per_fiducial frames, the nearest
+  one_round.max_frames_per_fiducial = one_round.frames_per_fiducial;
+  const ZResult nearest_only = correct_z(drive.data, T_start, 0.0, std::nullopt, one_round);
+  const ZResult r = correct_z(drive.data, T_start, 0.0, std::nullopt);
+  auto used = [](const ZResult& z) {
+    return std::count_if(z.fiducials.begin(), z.fiducials.end(), [](const FiducialResidual& f) { return f.used; });
+  };
+  std::printf("fiducials used: nearest frames only %d, with farther rounds %d (%zu frames loaded)\n",
+              int(used(nearest_only)), int(used(r)), r.frames_loaded);
+  ASSERT_TRUE(r.determined) << r.explanation;
+  EXPECT_GT(used(r), used(nearest_only));
+  EXPECT_LT(std::abs(tz_error(r, drive.T_ins_lidar_true)), 0.02) << r.explanation;
+  EXPECT_LE(r.frames_loaded, 6 * ZConfig{}.max_frames_per_fiducial);
 }
 
 TEST(ZCorrect, HeightPriorRecoversTz) {

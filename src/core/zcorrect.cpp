@@ -49,6 +49,7 @@ struct Target {
 struct LocalMap {
   std::vector<Vec3> p_world;
   Vec3 up_sum = Vec3::Zero();
+  std::size_t frames = 0;  ///< frames that contributed points
   Vec3 mean_up() const { return p_world.empty() ? Vec3::UnitZ() : Vec3(up_sum / double(p_world.size())); }
 };
 
@@ -99,6 +100,7 @@ std::vector<LocalMap> gather(const Dataset& data, const std::vector<Target>& tar
   for (auto& frame_maps : per_frame) {
     for (std::size_t t = 0; t < targets.size(); ++t) {
       auto& src = frame_maps[t];
+      if (!src.p_world.empty()) ++maps[t].frames;
       maps[t].p_world.insert(maps[t].p_world.end(), src.p_world.begin(), src.p_world.end());
       maps[t].up_sum += src.up_sum;
     }
@@ -281,32 +283,59 @@ void from_fiducials(const Dataset& data, const Iso3& T_ins_lidar, double time_of
     if (!frame_covered(data, i, time_offset_s)) continue;
     p_lidar_world[i] = data.poses.T_world_ins(frames[i].t_end_s + time_offset_s) * T_ins_lidar.translation();
   }
-  std::vector<Target> targets(n_fid);
+  // Candidate frames per fiducial, nearest first.
+  std::vector<std::vector<std::size_t>> candidates(n_fid);
   for (std::size_t f = 0; f < n_fid; ++f) {
     const Vec3& fid = data.fiducials[f].p_world;
-    targets[f].centre_xy = fid.head<2>();
-    targets[f].radius_m = config.search_radius_m;
-    std::vector<std::pair<double, std::size_t>> candidates;
+    std::vector<std::pair<double, std::size_t>> by_distance;
     for (std::size_t i = 0; i < frames.size(); ++i) {
       if (!p_lidar_world[i].allFinite()) continue;
       const double d = (p_lidar_world[i].head<2>() - fid.head<2>()).norm();
-      if (d >= config.min_view_distance_m && d <= config.max_view_distance_m) candidates.push_back({d, i});
+      if (d >= config.min_view_distance_m && d <= config.max_view_distance_m) by_distance.push_back({d, i});
     }
-    std::sort(candidates.begin(), candidates.end());
-    for (const auto& candidate : candidates) {
-      const std::size_t i = candidate.second;  // not a structured binding: clang 14 cannot capture those
-      if (targets[f].frames.size() >= config.frames_per_fiducial) break;
-      const bool too_close = std::any_of(targets[f].frames.begin(), targets[f].frames.end(), [&](std::size_t j) {
-        return std::abs(frames[j].t_end_s - frames[i].t_end_s) < config.min_frame_separation_s;
-      });
-      if (!too_close) targets[f].frames.push_back(i);
-    }
-    std::sort(targets[f].frames.begin(), targets[f].frames.end());
+    std::sort(by_distance.begin(), by_distance.end());
+    for (const auto& candidate : by_distance) candidates[f].push_back(candidate.second);
   }
-  std::size_t loaded = 0;
-  const std::vector<LocalMap> maps =
-      gather(data, targets, T_ins_lidar, time_offset_s, config.min_range_m, &loaded);
-  result.frames_loaded += loaded;
+  // Rounds of frames_per_fiducial frames each. A fiducial whose local map holds points from fewer
+  // than half of them gets another round, of the candidates left, with half the time separation
+  // (the car moves on between frames, and a sparse LiDAR sees the ground near a fiducial only
+  // from the distances where one of its rings meets the ground).
+  std::vector<Target> targets(n_fid);  // every frame chosen per fiducial, over all rounds
+  std::vector<LocalMap> maps(n_fid);
+  const std::size_t enough_frames = std::max<std::size_t>(1, config.frames_per_fiducial / 2);
+  for (double separation_s = config.min_frame_separation_s;; separation_s *= 0.5) {
+    std::vector<Target> batch(n_fid);
+    bool any = false;
+    for (std::size_t f = 0; f < n_fid; ++f) {
+      batch[f].centre_xy = targets[f].centre_xy = data.fiducials[f].p_world.head<2>();
+      batch[f].radius_m = targets[f].radius_m = config.search_radius_m;
+      const bool enough = maps[f].frames >= enough_frames && maps[f].p_world.size() >= config.min_points;
+      if (enough || targets[f].frames.size() >= config.max_frames_per_fiducial) continue;
+      for (const std::size_t i : candidates[f]) {
+        if (batch[f].frames.size() >= config.frames_per_fiducial ||
+            targets[f].frames.size() >= config.max_frames_per_fiducial) {
+          break;
+        }
+        const bool too_close = std::any_of(targets[f].frames.begin(), targets[f].frames.end(), [&](std::size_t j) {
+          return std::abs(frames[j].t_end_s - frames[i].t_end_s) < separation_s;
+        });
+        if (too_close) continue;
+        targets[f].frames.push_back(i);
+        batch[f].frames.push_back(i);
+      }
+      std::sort(batch[f].frames.begin(), batch[f].frames.end());
+      any = any || !batch[f].frames.empty();
+    }
+    if (!any) break;
+    std::size_t loaded = 0;
+    std::vector<LocalMap> more = gather(data, batch, T_ins_lidar, time_offset_s, config.min_range_m, &loaded);
+    result.frames_loaded += loaded;
+    for (std::size_t f = 0; f < n_fid; ++f) {
+      maps[f].p_world.insert(maps[f].p_world.end(), more[f].p_world.begin(), more[f].p_world.end());
+      maps[f].up_sum += more[f].up_sum;
+      maps[f].frames += more[f].frames;
+    }
+  }
 
   result.fiducials.resize(n_fid);
   std::vector<DzSample> samples;
@@ -345,6 +374,9 @@ void from_fiducials(const Dataset& data, const Iso3& T_ins_lidar, double time_of
   };
 
   if (samples.size() < config.min_fiducials) {
+    for (std::size_t f : sample_fid) {
+      result.fiducials[f].reason_rejected = "measured, but too few other fiducials could be";
+    }
     result.explanation = "tz not determined from fiducials: only " + std::to_string(samples.size()) + " of " +
                          std::to_string(n_fid) + " fiducials usable (need " + std::to_string(config.min_fiducials) +
                          ")" + (samples.size() < n_fid ? "; unusable: " + rejected_list() : "");
@@ -370,7 +402,10 @@ void from_fiducials(const Dataset& data, const Iso3& T_ins_lidar, double time_of
     result.explanation = "tz not determined from fiducials: only " + std::to_string(used) + " of " +
                          std::to_string(n_fid) + " fiducials agree (need " + std::to_string(config.min_fiducials) +
                          "); " + rejected_list();
-    for (auto& fr : result.fiducials) fr.residual_after_m = fr.residual_before_m, fr.used = false;
+    for (auto& fr : result.fiducials) {
+      if (fr.used) fr.reason_rejected = "agrees with too few others to determine tz";
+      fr.residual_after_m = fr.residual_before_m, fr.used = false;
+    }
     return;
   }
   result.determined = true;

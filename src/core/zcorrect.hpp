@@ -52,6 +52,10 @@ struct ZConfig {
   double min_view_distance_m = 3.0;
   double max_view_distance_m = 20.0;
   std::size_t frames_per_fiducial = 8;
+  /// A fiducial whose local map holds points from fewer than frames_per_fiducial / 2 frames gets
+  /// more rounds of farther candidate frames, up to this many frames in all: a 16-ring LiDAR
+  /// meets the ground near a fiducial only from the distances where one of its rings does.
+  std::size_t max_frames_per_fiducial = 40;
   /// Frames closer in time than this to an already chosen one for the same fiducial are
   /// skipped, so the chosen frames see it from different places and, on a figure-8, from
   /// different passes (INS drift differs between passes and partly averages out).

@@ -305,6 +305,8 @@ std::vector<P> build_table() {
   t.push_back(field("z.min_view_distance_m", "frames used for a fiducial pass at least this far from it, m", INSALIGN_AT(calibrate.z.min_view_distance_m)));
   t.push_back(field("z.max_view_distance_m", "...and at most this far, m", INSALIGN_AT(calibrate.z.max_view_distance_m)));
   t.push_back(field("z.frames_per_fiducial", "at most this many frames per fiducial", INSALIGN_AT(calibrate.z.frames_per_fiducial)));
+  t.push_back(field("z.max_frames_per_fiducial", "more (farther) frames for a fiducial seen in too few, up to this many",
+                    INSALIGN_AT(calibrate.z.max_frames_per_fiducial)));
   t.push_back(field("z.min_frame_separation_s", "frames for one fiducial at least this far apart in time, s", INSALIGN_AT(calibrate.z.min_frame_separation_s)));
   t.push_back(field("z.height_samples", "height prior: places along the drive where the ground under the INS is measured", INSALIGN_AT(calibrate.z.height_samples)));
   t.push_back(field("z.ground_radius_m", "height prior: ground points within this of the INS origin are fitted, m", INSALIGN_AT(calibrate.z.ground_radius_m)));
