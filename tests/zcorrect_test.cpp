@@ -230,6 +230,17 @@ TEST(ZCorrect, HeightPriorRecoversTz) {
   EXPECT_LT(r.wall_time_s, 0.5);
 }
 
+// The same sparse LiDAR does not see the ground under the INS from the nearest frames 3 m away
+// either: the height prior then stitches in frames from farther along the drive.
+TEST(ZCorrect, HeightPriorWithSparseRings) {
+  GroundDrive drive = make_drive(18, 25.0, Beams{.count = 8, .lowest_deg = -15.0, .step_deg = 2.0});
+  drive.data.fiducials.clear();
+  const ZResult r = correct_z(drive.data, stage2_like(drive.T_ins_lidar_true), 0.0, kInsHeight_m);
+  ASSERT_TRUE(r.determined) << r.explanation;
+  EXPECT_LT(std::abs(tz_error(r, drive.T_ins_lidar_true)), 0.02) << r.explanation;
+  EXPECT_GE(r.height_samples_used, 8u) << r.explanation;
+}
+
 TEST(ZCorrect, HeightPriorIsTheFallbackWhenFiducialsAreUnusable) {
   GroundDrive drive = make_drive(16);
   for (auto& f : drive.data.fiducials) f.p_world.x() += 1000.0;

@@ -437,45 +437,83 @@ void from_height(const Dataset& data, const Iso3& T_ins_lidar, double time_offse
   };
   // Samples evenly spread over the covered frames; each stitches in the nearest frames in time
   // (before and after) that were at least min_view_distance_m away, so they saw the ground under
-  // the car that its own sweep cannot see.
+  // the car that its own sweep cannot see. Where that ground is not found (a sparse LiDAR meets
+  // the ground only far out), a second round adds frames from twice the window, one each time the
+  // car is another min_view_distance_m farther away.
   const std::size_t n_samples = std::min(config.height_samples, covered.size());
   std::vector<Target> targets(n_samples);
   std::vector<Vec3> centre(n_samples);
-  for (std::size_t s = 0; s < n_samples; ++s) {
-    const std::size_t k = covered[(2 * s + 1) * covered.size() / (2 * n_samples)];
-    centre[s] = ins_position(k);
-    targets[s].centre_xy = centre[s].head<2>();
-    targets[s].radius_m = config.ground_radius_m;
-    targets[s].frames.push_back(k);
+  // Frames within window_s of sample frame k, per direction: the first at each multiple of
+  // min_view_distance_m from it, at most per_direction of them, not already in `taken`.
+  auto neighbours = [&](std::size_t k, double window_s, std::size_t per_direction,
+                        const std::vector<std::size_t>& taken) {
+    std::vector<std::size_t> out;
     const auto pos = std::lower_bound(covered.begin(), covered.end(), k);
     for (int dir : {-1, +1}) {
-      for (auto it = pos;;) {
+      std::size_t found = 0;
+      for (auto it = pos; found < per_direction;) {
         if (dir < 0 && it == covered.begin()) break;
         it += dir;
         if (it == covered.end()) break;
-        if (std::abs(frames[*it].t_end_s - frames[k].t_end_s) > config.ground_window_s) break;
-        if ((ins_position(*it).head<2>() - centre[s].head<2>()).norm() >= config.min_view_distance_m) {
-          if (targets[s].frames.size() < config.ground_frames_per_sample) targets[s].frames.push_back(*it);
-          break;
-        }
+        if (std::abs(frames[*it].t_end_s - frames[k].t_end_s) > window_s) break;
+        const double d = (ins_position(*it).head<2>() - ins_position(k).head<2>()).norm();
+        if (d < double(found + 1) * config.min_view_distance_m) continue;
+        ++found;
+        if (std::find(taken.begin(), taken.end(), *it) == taken.end()) out.push_back(*it);
       }
     }
-    std::sort(targets[s].frames.begin(), targets[s].frames.end());
+    std::sort(out.begin(), out.end());
+    return out;
+  };
+  std::vector<std::size_t> sample_frame(n_samples);
+  for (std::size_t s = 0; s < n_samples; ++s) {
+    const std::size_t k = sample_frame[s] = covered[(2 * s + 1) * covered.size() / (2 * n_samples)];
+    centre[s] = ins_position(k);
+    targets[s].centre_xy = centre[s].head<2>();
+    targets[s].radius_m = config.ground_radius_m;
+    targets[s].frames = neighbours(k, config.ground_window_s, 1, {});
+    targets[s].frames.resize(std::min(targets[s].frames.size(), config.ground_frames_per_sample - 1));
+    targets[s].frames.insert(std::lower_bound(targets[s].frames.begin(), targets[s].frames.end(), k), k);
   }
   std::size_t loaded = 0;
-  const std::vector<LocalMap> maps =
-      gather(data, targets, T_ins_lidar, time_offset_s, config.min_range_m, &loaded);
+  std::vector<LocalMap> maps = gather(data, targets, T_ins_lidar, time_offset_s, config.min_range_m, &loaded);
   result.frames_loaded += loaded;
 
-  std::vector<DzSample> samples;
-  std::string last_problem;
-  for (std::size_t s = 0; s < n_samples; ++s) {
-    SurfaceHeight g = fit_surface(maps[s], targets[s].centre_xy, FiducialMatch::kLocalPlane,
-                                        config.min_points, config.max_ground_slope_deg, 0.3);
+  auto ground_at = [&](std::size_t s) {
+    SurfaceHeight g = fit_surface(maps[s], targets[s].centre_xy, FiducialMatch::kLocalPlane, config.min_points,
+                                  config.max_ground_slope_deg, 0.3);
     if (g.ok && g.sigma_m > kMaxGroundSigma_m) {
       g.ok = false;
       g.problem = "the ground points near it do not pin down the height under the INS";
     }
+    return g;
+  };
+  std::vector<SurfaceHeight> ground(n_samples);
+  std::vector<Target> more(n_samples);
+  bool any_more = false;
+  for (std::size_t s = 0; s < n_samples; ++s) {
+    ground[s] = ground_at(s);
+    more[s].centre_xy = targets[s].centre_xy;
+    more[s].radius_m = targets[s].radius_m;
+    if (!ground[s].ok) more[s].frames = neighbours(sample_frame[s], 2.0 * config.ground_window_s, 4, targets[s].frames);
+    any_more = any_more || !more[s].frames.empty();
+  }
+  if (any_more) {
+    const std::vector<LocalMap> extra = gather(data, more, T_ins_lidar, time_offset_s, config.min_range_m, &loaded);
+    result.frames_loaded += loaded;
+    for (std::size_t s = 0; s < n_samples; ++s) {
+      if (more[s].frames.empty()) continue;
+      maps[s].p_world.insert(maps[s].p_world.end(), extra[s].p_world.begin(), extra[s].p_world.end());
+      maps[s].up_sum += extra[s].up_sum;
+      maps[s].frames += extra[s].frames;
+      ground[s] = ground_at(s);
+    }
+  }
+
+  std::vector<DzSample> samples;
+  std::string last_problem;
+  for (std::size_t s = 0; s < n_samples; ++s) {
+    const SurfaceHeight& g = ground[s];
     if (!g.ok) {
       last_problem = g.problem;
       continue;
