@@ -77,7 +77,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   io::ToolConfig tool;
   try {
-    for (const std::string& a : assignments) io::apply_config_assignment(io::tool_config_params(), a, "--set", tool);
+    tool = io::tool_config_with(assignments);
   } catch (const std::exception& e) {
     fmt::print(stderr, "{}\n", e.what());
     return 2;

@@ -122,6 +122,19 @@ TEST(ConfigFile, AssignmentFromCommandLine) {
   EXPECT_THROW(apply_config_assignment(small_params(), "nope=1", "--set", s), InputError);
 }
 
+TEST(ConfigFile, ToolAssignmentsOverrideTheDefaults) {
+  const ToolConfig c = tool_config_with({"sim.lidar_model=vlp16", "z.max_frames_per_fiducial=16"});
+  EXPECT_EQ(c.sim.lidar_model, "vlp16");
+  EXPECT_EQ(c.calibrate.z.max_frames_per_fiducial, 16u);
+  EXPECT_EQ(c.calibrate.refine.frames.max_frames, ToolConfig{}.calibrate.refine.frames.max_frames);
+  try {
+    tool_config_with({"z.max_frames_per_fiducal=16"});
+    ADD_FAILURE() << "a misspelt key was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("z.max_frames_per_fiducial"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ConfigFile, ToolTableDumpsAndReloadsFromAFile) {
   // Every key unique, every meaning present, and the dump of the defaults loads back unchanged.
   std::set<std::string> keys;

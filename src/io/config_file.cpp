@@ -358,6 +358,12 @@ ToolConfig load_tool_config(const std::filesystem::path& path, ToolConfig defaul
   return defaults;
 }
 
+ToolConfig tool_config_with(const std::vector<std::string>& assignments, const std::string& source,
+                            ToolConfig defaults) {
+  for (const std::string& a : assignments) apply_config_assignment(tool_config_params(), a, source, defaults);
+  return defaults;
+}
+
 std::string dump_tool_config(const ToolConfig& config) {
   return dump_config(tool_config_params(), config,
                      "insalign parameters with their defaults. Pass a file with any subset of them to\n"

@@ -238,6 +238,11 @@ const std::vector<ConfigParam<ToolConfig>>& tool_config_params();
 /// Defaults overridden by the YAML file. Throws InputError(path, "line N", ...).
 ToolConfig load_tool_config(const std::filesystem::path& path, ToolConfig defaults = {});
 
+/// Defaults overridden by `key=value` assignments (the benchmarks' --set). Throws InputError
+/// naming `source` and the key.
+ToolConfig tool_config_with(const std::vector<std::string>& assignments, const std::string& source = "--set",
+                            ToolConfig defaults = {});
+
 /// `insalign config --dump`: commented YAML of every parameter with its value in `config`.
 std::string dump_tool_config(const ToolConfig& config = {});
 
