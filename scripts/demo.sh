@@ -10,4 +10,4 @@ build/src/insalign simulate --out "$out/data"
 build/src/insalign calibrate --lidar-dir "$out/data/lidar" --poses "$out/data/poses.txt" \
   --init "$out/data/init-extrinsic.json" --fiducials "$out/data/fiducials.txt" --out "$out/result"
 build/src/insalign evaluate --gt "$out/data/ground_truth.json" --result "$out/result/extrinsic.json"
-echo "Report: $(pwd)/$out/result/report.html"
+echo "Report: $(realpath "$out/result/report.html")"
