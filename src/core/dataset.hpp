@@ -3,6 +3,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <string>
@@ -30,9 +31,29 @@ struct Fiducial {
   Vec3 p_world = Vec3::Zero();
 };
 
+/// What the INS says of its own solution at a time; a source that says nothing gives kUnknown.
+enum class GnssSolution {
+  kUnknown,       ///< the source does not say
+  kRtkFixed,      ///< carrier-phase ambiguities fixed (cm level)
+  kRtkFloat,      ///< carrier phase, ambiguities float (dm level)
+  kDifferential,  ///< code differential, SBAS, PPP converging (dm to m)
+  kSingle,        ///< single point (m level)
+  kInsOnly,       ///< no GNSS: the INS is coasting on its inertial sensors
+  kInvalid,       ///< the source marks the solution unusable
+};
+
+struct InsQuality {
+  double t_s = 0.0;  ///< INS clock, as the poses
+  GnssSolution solution = GnssSolution::kUnknown;
+  /// One-sigma horizontal and vertical position error the INS states (m); NaN: not stated.
+  double horizontal_stddev_m = std::numeric_limits<double>::quiet_NaN();
+  double vertical_stddev_m = std::numeric_limits<double>::quiet_NaN();
+};
+
 struct Dataset {
   FrameSource frames;
   PoseStream poses;                      ///< T_world_ins, world recentred on world_origin_m
+  std::vector<InsQuality> ins_quality;   ///< time order; empty when the source states nothing
   Vec3 world_origin_m = Vec3::Zero();    ///< subtracted from pose file positions (UTM is large)
   std::vector<Fiducial> fiducials;       ///< same recentred world frame
   std::optional<Iso3> T_ins_lidar_init;  ///< from --init, if given

@@ -1,0 +1,76 @@
+// One interface over the three recording containers (ROS 1 bag v2.0, MCAP, rosbag2 sqlite3):
+// the topics with their types and stored definitions, an index of every message (no message data
+// read), and random access to one message's serialized bytes. Decoding the bytes is
+// messages.hpp's job; choosing topics and building a Dataset is bag_dataset.hpp's.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace insalign::io::bag {
+
+/// How a message's bytes are serialized.
+enum class MessageEncoding {
+  kRos1,  ///< ROS 1 serialization (ROS 1 bags; MCAP channels with message_encoding "ros1")
+  kCdr,   ///< CDR with a 4-byte encapsulation header (rosbag2; MCAP "cdr")
+};
+
+struct Topic {
+  std::string name;            ///< "/points"
+  std::string type;            ///< as stored: "sensor_msgs/PointCloud2" or "sensor_msgs/msg/PointCloud2"
+  MessageEncoding encoding = MessageEncoding::kRos1;
+  std::string definition;      ///< stored message definition text (ros1msg / ros2msg); empty if none
+  std::string definition_encoding;  ///< "ros1msg", "ros2msg", "ros2idl" or "" (none stored)
+  std::string md5sum;          ///< ROS 1 only
+  std::uint64_t message_count = 0;
+};
+
+/// Where one message is; `locator` means something only to the reader that made it.
+struct MessageRef {
+  std::uint32_t topic = 0;        ///< index into BagReader::topics()
+  std::int64_t log_time_ns = 0;   ///< the recorder's receive time (not header.stamp)
+  std::uint64_t locator = 0;
+  std::uint64_t locator2 = 0;
+};
+
+class BagReader {
+ public:
+  virtual ~BagReader() = default;
+
+  /// Every topic of the recording (also those with no message).
+  virtual const std::vector<Topic>& topics() const = 0;
+
+  /// Every message of `topic`, in log-time order (ties in file order), from the index: no
+  /// message data is read or decompressed.
+  virtual std::vector<MessageRef> messages(std::uint32_t topic) const = 0;
+
+  /// The serialized bytes of one message. Thread-safe (stages load sweeps in parallel).
+  /// Throws InputError(file, "byte N", what) for a corrupt or truncated record.
+  virtual std::vector<std::uint8_t> read(const MessageRef& ref) const = 0;
+
+  /// "ROS 1 bag v2.0, lz4 chunks", "MCAP (ros2 profile), zstd chunks, indexed", ...
+  virtual std::string describe() const = 0;
+
+  /// What was tolerated while opening (e.g. "no summary section: streamed up to byte N").
+  virtual const std::vector<std::string>& warnings() const = 0;
+
+  /// The recorder's time range, nanoseconds (0, 0 when there is no message).
+  virtual std::int64_t start_time_ns() const = 0;
+  virtual std::int64_t end_time_ns() const = 0;
+
+  /// The file (or folder) this reads; used in error messages.
+  virtual const std::filesystem::path& path() const = 0;
+};
+
+/// Opens any of the containers, detected from the content (magic bytes) or, for a folder, its
+/// `metadata.yaml` or its `.db3` / `.mcap` files in name order (one bag split in several files).
+/// Throws InputError(path, "byte N" or "", what) when it cannot.
+std::unique_ptr<BagReader> open_bag(const std::filesystem::path& path);
+
+/// The type without the ROS 2 "/msg/" infix: "sensor_msgs/msg/PointCloud2" -> "sensor_msgs/PointCloud2".
+std::string normalized_type(const std::string& type);
+
+}  // namespace insalign::io::bag
