@@ -138,6 +138,65 @@ TEST(Mcap, RealCdrTestRecording) {
   EXPECT_EQ(total, 7u);
 }
 
+// Files written by @mcap/core (tests/fixtures/bags/make_mcap.mjs; facts in out/mcap_summary.json).
+const fs::path kFixtureDir = fs::path(__FILE__).parent_path() / "data" / "bags";
+
+TEST(Mcap, IndependentWriterZstdAndLz4) {
+  for (const char* name : {"mcap_hesai_ouster_zstd.mcap", "mcap_hesai_ouster_lz4.mcap"}) {
+    const auto reader = open_mcap(kFixtureDir / name);
+    EXPECT_NE(reader->describe().find(std::string(name).find("lz4") != std::string::npos ? "lz4 chunks" : "zstd chunks"),
+              std::string::npos);
+    const std::map<std::string, std::pair<std::string, std::uint64_t>> expected = {
+        {"/novatel/oem7/inspvax", {"novatel_oem7_msgs/msg/INSPVAX", 36}},
+        {"/odom", {"nav_msgs/msg/Odometry", 36}},
+        {"/hesai/pandar", {"sensor_msgs/msg/PointCloud2", 3}},
+        {"/ouster/points", {"sensor_msgs/msg/PointCloud2", 3}}};
+    ASSERT_EQ(reader->topics().size(), expected.size());
+    for (const auto& [topic, type_count] : expected) {
+      const Topic* t = find_topic(*reader, topic);
+      ASSERT_NE(t, nullptr) << topic;
+      EXPECT_EQ(t->type, type_count.first);
+      EXPECT_EQ(t->message_count, type_count.second);
+      const auto refs = reader->messages(topic_index(*reader, topic));
+      ASSERT_EQ(refs.size(), type_count.second);
+      for (const MessageRef& ref : refs) EXPECT_GT(reader->read(ref).size(), 4u);
+    }
+    // An 800-point Hesai cloud of 48-byte points: its data alone is 38,400 bytes.
+    EXPECT_GT(reader->read(reader->messages(topic_index(*reader, "/hesai/pandar"))[0]).size(), 38400u);
+    EXPECT_EQ(reader->start_time_ns(), 1699999999982000000);
+    EXPECT_EQ(reader->end_time_ns(), 1700000000332000000);
+  }
+}
+
+TEST(Mcap, IndependentWriterCutOffAndCorruptCopies) {
+  const auto cut = open_mcap(kFixtureDir / "mcap_truncated.mcap");  // cut in the middle of the chunk at 46523
+  ASSERT_EQ(cut->warnings().size(), 1u);
+  EXPECT_NE(cut->warnings()[0].find("stops being readable at byte 46523"), std::string::npos) << cut->warnings()[0];
+  const std::map<std::string, std::size_t> counts = {
+      {"/novatel/oem7/inspvax", 23}, {"/odom", 23}, {"/hesai/pandar", 2}, {"/ouster/points", 1}};
+  for (const auto& [topic, count] : counts) {
+    const auto refs = cut->messages(topic_index(*cut, topic));
+    EXPECT_EQ(refs.size(), count) << topic;
+    for (const MessageRef& ref : refs) EXPECT_FALSE(cut->read(ref).empty());
+  }
+  EXPECT_EQ(cut->end_time_ns(), 1700000000203000000);
+  // A byte flipped inside the lz4 chunk at 24136: reading any of its messages names that chunk.
+  const auto corrupt = open_mcap(kFixtureDir / "mcap_corrupt_chunk.mcap");
+  std::size_t failures = 0;
+  for (std::uint32_t t = 0; t < corrupt->topics().size(); ++t) {
+    for (const MessageRef& ref : corrupt->messages(t)) {
+      try {
+        (void)corrupt->read(ref);
+      } catch (const InputError& e) {
+        EXPECT_EQ(e.location(), "byte 24136") << e.what();
+        ++failures;
+      }
+    }
+  }
+  EXPECT_GT(failures, 0u);
+  EXPECT_LT(failures, 78u / 2) << "only one chunk of six is corrupt";
+}
+
 // ---------------------------------------------------------------------------------------------
 // Round trips of the writer
 

@@ -695,6 +695,7 @@ void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
 /// One topic per channel topic; channels repeating a topic with the same type and encoding
 /// (several publishers) share it.
 void McapReader::build_topics() {
+  std::map<std::tuple<std::string, std::string, std::string>, std::uint32_t> by_key;  // name, type, encoding
   for (const auto& [id, ch] : channels_) {
     const auto schema = schemas_.find(ch.schema_id);
     Topic t;
@@ -706,11 +707,10 @@ void McapReader::build_topics() {
       t.definition_encoding = schema->second.encoding;
     }
     if (const auto md5 = ch.metadata.find("md5sum"); md5 != ch.metadata.end()) t.md5sum = md5->second;
-    std::uint32_t index = static_cast<std::uint32_t>(topics_.size());
-    for (std::uint32_t i = 0; i < topics_.size(); ++i) {
-      if (topics_[i].name == t.name && topics_[i].type == t.type && topic_encoding_[i] == ch.message_encoding) index = i;
-    }
-    if (index == topics_.size()) {
+    const auto [it, is_new] =
+        by_key.try_emplace({t.name, t.type, ch.message_encoding}, static_cast<std::uint32_t>(topics_.size()));
+    const std::uint32_t index = it->second;
+    if (is_new) {
       topics_.push_back(std::move(t));
       topic_encoding_.push_back(ch.message_encoding);
     }
