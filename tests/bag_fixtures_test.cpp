@@ -15,6 +15,7 @@
 #include "io/bag/bag_reader.hpp"
 #include "io/bag/message_definitions.hpp"
 #include "io/bag/messages.hpp"
+#include "io/bag/pointcloud2.hpp"
 
 namespace insalign::io::bag {
 namespace {
@@ -202,6 +203,92 @@ void expect_odometry(const std::vector<std::uint8_t>& bytes, MessageEncoding enc
   EXPECT_NEAR(r.t_s, static_cast<double>(ins_stamp_ns(i)) * 1e-9, kTimeTol);
 }
 
+
+// ---------------------------------------------------------------------------- the sweeps (README)
+
+struct SweepFact {
+  std::int64_t stamp_ns;
+  std::size_t points;
+  Vec3 first_xyz;
+  float first_intensity;
+  double first_t_s, t_end_s;
+};
+struct LayoutFact {
+  PointTimeConvention convention;
+  std::string time_field, ring_field;
+  std::uint16_t last_ring;  ///< ring of the last point in storage order
+  std::vector<SweepFact> sweeps;
+};
+
+const LayoutFact kHesai{PointTimeConvention::kAbsoluteSeconds, "timestamp", "ring", 15,
+                        {{1'700'000'000'000'000'000, 800, {20.95703125, 6.48046875, -5.87890625}, 250, 1700000000.000, 1700000000.098},
+                         {1'700'000'000'100'000'000, 800, {20.8984375, 6.6953125, -5.87890625}, 18, 1700000000.100, 1700000000.198},
+                         {1'700'000'000'200'000'000, 800, {20.84375, 6.90625, -5.8828125}, 41, 1700000000.200, 1700000000.298}}};
+// Velodyne and Velodyne-PCL: the same points in two layouts; the split rosbag2 bag has a 4th sweep.
+const LayoutFact kVelodyne{PointTimeConvention::kRelativeSeconds, "time", "ring", 15,
+                           {{1'700'000'000'110'000'000, 800, {4.0, 1.23828125, -1.12109375}, 174, 1700000000.010, 1700000000.108},
+                            {1'700'000'000'210'000'000, 800, {4.0, 1.28125, -1.125}, 198, 1700000000.110, 1700000000.208},
+                            {1'700'000'000'310'000'000, 800, {3.99609375, 1.32421875, -1.12890625}, 221, 1700000000.210, 1700000000.308},
+                            {1'700'000'000'410'000'000, 800, {3.9921875, 1.3671875, -1.1328125}, 244, 1700000000.310, 1700000000.408}}};
+const LayoutFact kOuster{PointTimeConvention::kRelativeNanoseconds, "t", "ring", 15,
+                         {{1'700'000'000'020'000'000, 768, {14.73046875, 4.5546875, -4.1328125}, 99, 1700000000.020, 1700000000.117916651},
+                          {1'700'000'000'120'000'000, 768, {14.6953125, 4.70703125, -4.1328125}, 122, 1700000000.120, 1700000000.217916651},
+                          {1'700'000'000'220'000'000, 768, {14.65625, 4.85546875, -4.13671875}, 145, 1700000000.220, 1700000000.317916651}}};
+const LayoutFact kLivox{PointTimeConvention::kAbsoluteNanoseconds, "timestamp", "line", 3,
+                        {{1'700'000'000'030'000'000, 600, {26.98046875, 5.08984375, 2.69140625}, 23, 1700000000.030, 1700000000.129832934},
+                         {1'700'000'000'130'000'000, 600, {26.8828125, -5.4140625, 3.1171875}, 47, 1700000000.130, 1700000000.229832934},
+                         {1'700'000'000'230'000'000, 600, {22.84375, -15.09765625, 3.546875}, 70, 1700000000.230, 1700000000.329832934}}};
+const LayoutFact kNoTime{PointTimeConvention::kNone, "", "", 0,
+                         {{1'700'000'000'140'000'000, 500, {9.03125, -1.55078125, 0.9609375}, 203, 1700000000.140, 1700000000.140},
+                          {1'700'000'000'240'000'000, 500, {7.78515625, -4.828125, 1.10546875}, 226, 1700000000.240, 1700000000.240},
+                          {1'700'000'000'340'000'000, 500, {8.79296875, 2.54296875, 1.25}, 249, 1700000000.340, 1700000000.340}}};
+
+/// Every cloud of `topic` through decode_sweep: the detected time convention, point count, the
+/// first point (storage order) with its time, and t_end_s = the latest point time.
+void expect_sweeps(const BagReader& bag, const std::string& topic, const LayoutFact& layout, std::size_t n_sweeps,
+                   const std::string& frame_id) {
+  const auto refs = bag.messages(topic_index(bag, topic));
+  ASSERT_EQ(refs.size(), n_sweeps);
+  const MessageEncoding enc = topic_of(bag, topic).encoding;
+  for (std::size_t k = 0; k < n_sweeps; ++k) {
+    SCOPED_TRACE(bag.path().filename().string() + " " + topic + " sweep " + std::to_string(k));
+    const SweepFact& f = layout.sweeps.at(k);
+    const std::vector<std::uint8_t> bytes = bag.read(refs[k]);
+    PointCloudInfo info;
+    const Sweep s = decode_sweep(bytes, enc, topic, &info);
+    EXPECT_EQ(info.time_convention, layout.convention) << info.time_description;
+    EXPECT_EQ(info.time_field, layout.time_field);
+    EXPECT_EQ(info.ring_field, layout.ring_field);
+    EXPECT_EQ(info.intensity_field, "intensity");
+    EXPECT_EQ(info.frame_id, frame_id);
+    EXPECT_NEAR(info.header_stamp_s, static_cast<double>(f.stamp_ns) * 1e-9, kTimeTol);
+    EXPECT_EQ(info.points, f.points);
+    EXPECT_EQ(info.dropped_nonfinite + info.dropped_time_outside, 0u);
+    ASSERT_EQ(s.size(), f.points);
+    EXPECT_NEAR(s.p_lidar[0].x(), f.first_xyz.x(), kXyzTol);
+    EXPECT_NEAR(s.p_lidar[0].y(), f.first_xyz.y(), kXyzTol);
+    EXPECT_NEAR(s.p_lidar[0].z(), f.first_xyz.z(), kXyzTol);
+    ASSERT_EQ(s.intensity.size(), f.points);
+    EXPECT_EQ(s.intensity[0], f.first_intensity);
+    EXPECT_NEAR(s.t_end_s, f.t_end_s, kTimeTol);
+    if (layout.convention == PointTimeConvention::kNone) {
+      EXPECT_FALSE(s.has_time());
+    } else {
+      ASSERT_EQ(s.dt_s.size(), f.points);
+      EXPECT_NEAR(s.t_end_s + s.dt_s[0], f.first_t_s, kTimeTol);
+      EXPECT_EQ(*std::max_element(s.dt_s.begin(), s.dt_s.end()), 0.0f);  // t_end is a point's time
+      EXPECT_NEAR(*std::min_element(s.dt_s.begin(), s.dt_s.end()), f.first_t_s - f.t_end_s, kTimeTol);
+    }
+    if (layout.ring_field.empty()) {
+      EXPECT_TRUE(s.ring.empty());
+    } else {
+      ASSERT_EQ(s.ring.size(), f.points);
+      EXPECT_EQ(s.ring.front(), 0);
+      EXPECT_EQ(s.ring.back(), layout.last_ring);
+    }
+  }
+}
+
 // ------------------------------------------------------------------------------------ ROS 1
 
 TEST(BagFixtures, Ros1HesaiInspvaUncompressed) {
@@ -225,6 +312,7 @@ TEST(BagFixtures, Ros1HesaiInspvaUncompressed) {
     EXPECT_TRUE(check.checked) << name;
     EXPECT_EQ(check.oem7_layout, Oem7Header::Layout::kBase) << name;
   }
+  expect_sweeps(*bag, "/hesai/pandar", kHesai, 3, "hesai_lidar");
   const auto enc = MessageEncoding::kRos1;
   for (auto layout : {std::optional<Oem7Header::Layout>{}, std::optional{Oem7Header::Layout::kBase}}) {
     expect_inspva(read_first(*bag, "/novatel/oem7/inspva"), enc, 0, kFirst, layout);
@@ -242,6 +330,8 @@ TEST(BagFixtures, Ros1VelodyneNavSatBz2) {
               {"/gps/fix", "sensor_msgs/NavSatFix", 36},
               {"/imu/data", "sensor_msgs/Imu", 36}},
              1'699'999'999'982'000'000, 1'700'000'000'344'800'000);
+  expect_sweeps(*bag, "/velodyne_points", kVelodyne, 3, "velodyne");
+  expect_sweeps(*bag, "/points_no_time", kNoTime, 3, "lidar");
   const auto enc = MessageEncoding::kRos1;
   expect_navsatfix(read_first(*bag, "/gps/fix"), enc, 0, kFirst);
   expect_navsatfix(read_last(*bag, "/gps/fix"), enc, 35, kLast);
@@ -260,6 +350,8 @@ TEST(BagFixtures, Ros1OusterLivoxTfLz4) {
               {"/tf", "tf2_msgs/TFMessage", 36},
               {"/tf_static", "tf2_msgs/TFMessage", 1}},
              1'699'999'999'981'000'000, 1'700'000'000'334'832'934);
+  expect_sweeps(*bag, "/ouster/points", kOuster, 3, "os_sensor");
+  expect_sweeps(*bag, "/livox/lidar", kLivox, 3, "livox_frame");
   const auto enc = MessageEncoding::kRos1;
   expect_odometry(read_first(*bag, "/odom"), enc, 0, kFirst);
   expect_odometry(read_last(*bag, "/odom"), enc, 35, kLast);
@@ -320,6 +412,8 @@ void expect_mcap(const BagReader& bag, Oem7Header::Layout oem7_layout) {
     EXPECT_EQ(t.definition_encoding, "ros2msg");
     EXPECT_TRUE(check_definition(t).checked) << t.name;
   }
+  expect_sweeps(bag, "/hesai/pandar", kHesai, 3, "hesai_lidar");
+  expect_sweeps(bag, "/ouster/points", kOuster, 3, "os_sensor");  // lz4 file: the uint8 ring layout
   const DefinitionCheck check = check_definition(topic_of(bag, "/novatel/oem7/inspvax"));
   EXPECT_EQ(check.oem7_layout, oem7_layout);
   const auto enc = MessageEncoding::kCdr;
@@ -357,6 +451,8 @@ TEST(BagFixtures, McapCutOffIsStreamedWithAWarningNamingTheByte) {
               {"/novatel/oem7/inspvax", "novatel_oem7_msgs/msg/INSPVAX", 23},
               {"/odom", "nav_msgs/msg/Odometry", 23}},
              1'699'999'999'982'000'000, 1'700'000'000'203'000'000);
+  expect_sweeps(*bag, "/hesai/pandar", kHesai, 2, "hesai_lidar");
+  expect_sweeps(*bag, "/ouster/points", kOuster, 1, "os_sensor");
   // The last whole message: Odometry 22 (stamp T0 + 0.2 s, position 10.6, 20.8, 0.51).
   const Odometry last = decode_odometry(read_last(*bag, "/odom"), MessageEncoding::kCdr, "odometry");
   EXPECT_EQ(last.header.stamp.nanoseconds(), ins_stamp_ns(22));
@@ -400,6 +496,7 @@ TEST(BagFixtures, Rosbag2SplitJazzyWithMetadata) {
     EXPECT_EQ(t.definition_encoding, "ros2msg");
     EXPECT_TRUE(check_definition(t).checked) << t.name;
   }
+  expect_sweeps(*bag, "/velodyne_points", kVelodyne, 4, "velodyne");  // Velodyne-PCL layout
   const auto enc = MessageEncoding::kCdr;
   expect_navsatfix(read_first(*bag, "/gps/fix"), enc, 0, kFirst);
   expect_navsatfix(read_last(*bag, "/gps/fix"), enc, 45, kLast46);
@@ -428,6 +525,7 @@ TEST(BagFixtures, Rosbag2HumbleWithoutDefinitionsOrMetadata) {
       EXPECT_TRUE(t.definition.empty()) << t.name;
       EXPECT_EQ(t.definition_encoding, "");
     }
+    expect_sweeps(*bag, "/velodyne_points", kVelodyne, 3, "velodyne");
     expect_odometry(read_first(*bag, "/odom"), MessageEncoding::kCdr, 0, kFirst);
     expect_odometry(read_last(*bag, "/odom"), MessageEncoding::kCdr, 35, kLast);
   }
