@@ -318,7 +318,7 @@ void io_oem7_header_common(IO& io, M& h) {
 template <typename IO, typename M>
 void io_oem7_header_tail(IO& io, M& h, Oem7Header::Layout layout) {
   if (layout == Oem7Header::Layout::kIdleTime) {
-    std::uint8_t idle = static_cast<std::uint8_t>(h.idle_time);
+    std::uint8_t idle = h.idle_time >= 0.0f && h.idle_time <= 255.0f ? static_cast<std::uint8_t>(h.idle_time) : 0;
     io.num(idle, "nov_header.idle_time");
     h.idle_time = idle;
   } else if (layout == Oem7Header::Layout::kReceiverStatus) {

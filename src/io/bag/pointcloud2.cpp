@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <stdexcept>
+#include <type_traits>
 
 #include "core/errors.hpp"
 
@@ -86,6 +87,17 @@ Grid check_grid(const PointCloud2Layout& cloud, Bytes data, const std::string& w
 
 // ------------------------------------------------------------------------- gathering a field
 
+// A double beyond float's range becomes +-inf (a plain cast would be undefined behaviour).
+template <typename Out, typename T>
+Out convert(T v) {
+  if constexpr (std::is_same_v<T, double> && std::is_same_v<Out, float>) {
+    constexpr double kMax = std::numeric_limits<float>::max();
+    if (v > kMax) return std::numeric_limits<float>::infinity();
+    if (v < -kMax) return -std::numeric_limits<float>::infinity();
+  }
+  return static_cast<Out>(v);
+}
+
 template <typename T, typename Out>
 void gather_as(const Grid& g, std::size_t offset, Out* out, std::size_t stride) {
   std::size_t k = 0;
@@ -94,7 +106,7 @@ void gather_as(const Grid& g, std::size_t offset, Out* out, std::size_t stride) 
     for (std::size_t c = 0; c < g.width; ++c, p += g.point_step, k += stride) {
       T v;
       std::memcpy(&v, p, sizeof(T));
-      out[k] = static_cast<Out>(v);
+      out[k] = convert<Out>(v);
     }
   }
 }
@@ -250,7 +262,7 @@ void apply_time(Gathered& g, const PointField* time_field, double stamp_s, Sweep
   for (std::size_t i = 0; i < g.t.size(); ++i) {
     const double dt = (g.t[i] - vmax) * model.to_seconds;
     keep[i] = dt >= -kMaxSweepSpan_s;
-    sweep.dt_s[i] = static_cast<float>(dt);
+    sweep.dt_s[i] = keep[i] ? static_cast<float>(dt) : 0.0f;  // in [-1, 0] s: the cast is exact enough
   }
   info.dropped_time_outside = static_cast<std::size_t>(std::count(keep.begin(), keep.end(), 0));
   if (info.dropped_time_outside == 0) return;
@@ -328,9 +340,9 @@ std::vector<FieldSpec> driver_fields(DriverLayout layout, std::uint32_t& point_s
   using F = PointField;
   switch (layout) {
     case DriverLayout::kHesai:
-      point_step = 32;
+      point_step = 48;
       return {{"x", 0, F::kFloat32}, {"y", 4, F::kFloat32}, {"z", 8, F::kFloat32},
-              {"intensity", 16, F::kFloat32}, {"ring", 20, F::kUint16}, {"timestamp", 24, F::kFloat64}};
+              {"intensity", 16, F::kFloat32}, {"timestamp", 24, F::kFloat64}, {"ring", 32, F::kUint16}};
     case DriverLayout::kVelodyne:
       point_step = 22;
       return {{"x", 0, F::kFloat32}, {"y", 4, F::kFloat32}, {"z", 8, F::kFloat32},

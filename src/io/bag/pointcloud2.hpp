@@ -1,7 +1,7 @@
 // sensor_msgs/PointCloud2 <-> Sweep: any field layout (names, offsets, INT8..FLOAT64, counts,
 // padding in point_step, row_step, height > 1), with the per-point time convention of the driver
 // detected from the field's name, datatype and values:
-//   `timestamp` float64 absolute seconds            Hesai (HesaiLidar_ROS_2.0), RoboSense (rslidar_sdk)
+//   `timestamp` float64 absolute seconds            Hesai (HesaiLidar_General_ROS), RoboSense (rslidar_sdk)
 //   `timestamp` float64 absolute NANOseconds        Livox (livox_ros_driver2): told apart by magnitude
 //   `time` float32 seconds relative to header.stamp Velodyne (velodyne_pointcloud; negative when the
 //                                                   stamp is the last packet, i.e. the sweep end)
@@ -58,7 +58,7 @@ Sweep sweep_from_pointcloud2(const PointCloud2Layout& cloud, Bytes data, const s
 
 /// Point layouts of common drivers, for writing recordings that look like theirs.
 enum class DriverLayout {
-  kHesai,     ///< x y z (16-byte block), intensity f32, ring u16, timestamp f64 absolute s; step 32
+  kHesai,     ///< x y z (16-byte block), intensity f32, timestamp f64 absolute s, ring u16; step 48
   kVelodyne,  ///< x y z intensity f32, ring u16, time f32 relative to the stamp = sweep end; step 22
   kOuster,    ///< x y z (16), intensity f32, t u32 ns from the stamp = sweep start, ..., ring u16; step 48
   kLivox,     ///< x y z intensity f32, tag u8, line u8, timestamp f64 absolute ns; step 26 (unaligned)
