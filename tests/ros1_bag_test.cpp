@@ -207,6 +207,7 @@ void expect_same(const BagReader& bag, const Written& w) {
     EXPECT_EQ(topic.type, w.topics[t].type);
     EXPECT_EQ(topic.md5sum, w.topics[t].md5sum);
     EXPECT_EQ(topic.definition, w.topics[t].definition);
+    EXPECT_EQ(topic.definition_encoding, w.topics[t].definition.empty() ? "" : "ros1msg");  // empty: none stored
     EXPECT_EQ(topic.message_count, w.messages[t].size());
     const std::vector<MessageRef> refs = bag.messages(t);
     ASSERT_EQ(refs.size(), w.messages[t].size()) << topic.name;

@@ -330,7 +330,8 @@ void add_connection(Contents& c, const Record& r, Source& src) {
     topic.name = *topic_name;
     topic.type = *type;
     topic.encoding = MessageEncoding::kRos1;
-    if (const std::string* def = header.find("message_definition")) {
+    // An empty definition counts as none stored, so that decoders fall back to built-in ones.
+    if (const std::string* def = header.find("message_definition"); def != nullptr && !def->empty()) {
       topic.definition = *def;
       topic.definition_encoding = "ros1msg";
     }
