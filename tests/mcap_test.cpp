@@ -434,6 +434,34 @@ TEST(Mcap, MessagesOutsideChunks) {
   fs::remove_all(dir);
 }
 
+TEST(Mcap, SummaryWithoutChunkIndexOrStatistics) {
+  Builder f;
+  f.header();
+  f.schema_and_channel(1, "/a", "cdr");
+  const std::string records = Builder::message(1, 5, "chunked");
+  f.add(Builder::record(0x06, Builder::u64(5) + Builder::u64(5) + Builder::u64(records.size()) + Builder::u32(0) +
+                                  Builder::str("") + Builder::u64(records.size()) + records));
+  f.add(Builder::message(1, 7, "loose"));
+  f.add(Builder::record(0x0F, Builder::u32(0)));
+  const std::size_t summary_start = f.b.size();
+  f.schema_and_channel(1, "/a", "cdr");  // the summary: schema and channel only
+  f.add(Builder::record(0x02, Builder::u64(summary_start) + Builder::u64(0) + Builder::u32(0)));
+  f.b += std::string("\x89MCAP0\r\n", 8);
+  const fs::path dir = temp_dir("noindex");
+  write_raw(dir / "n.mcap", f.b);
+  const auto reader = open_mcap(dir / "n.mcap");
+  EXPECT_EQ(reader->describe(), "MCAP (ros2 profile), uncompressed chunks, indexed");
+  ASSERT_EQ(reader->topics().size(), 1u);
+  EXPECT_EQ(reader->topics()[0].message_count, 2u);
+  const auto refs = reader->messages(0);
+  ASSERT_EQ(refs.size(), 2u);
+  const Bytes a = reader->read(refs[0]), b = reader->read(refs[1]);
+  EXPECT_EQ(std::string(a.begin(), a.end()), "chunked");
+  EXPECT_EQ(std::string(b.begin(), b.end()), "loose");
+  EXPECT_EQ(reader->end_time_ns(), 7);
+  fs::remove_all(dir);
+}
+
 TEST(Mcap, ForeignMessageEncodingIsListedButNotRead) {
   Builder f;
   f.header();

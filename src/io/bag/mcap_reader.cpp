@@ -452,6 +452,7 @@ class McapReader final : public BagReader {
   void read_message_indexes(std::size_t chunk, std::vector<Found>& found) const;
   void scan_chunk(std::size_t chunk, const Bytes& records, std::vector<Found>& found) const;
   void scan_top_level_messages(std::vector<Found>& found) const;
+  std::shared_ptr<const Bytes> add_unindexed_chunk(std::uint64_t offset, std::uint64_t length) const;
   void set_refs(std::vector<Found> found) const;
   std::shared_ptr<const Bytes> chunk_records(std::size_t chunk) const;
   Bytes load_chunk(std::size_t chunk) const;
@@ -465,7 +466,7 @@ class McapReader final : public BagReader {
   bool indexed_ = false;
   std::map<std::uint16_t, SchemaRecord> schemas_;
   std::map<std::uint16_t, ChannelRecord> channels_;
-  std::vector<ChunkLocation> chunks_;
+  mutable std::vector<ChunkLocation> chunks_;  ///< grows while indexing only if some chunk has no chunk index
   std::optional<Statistics> stats_;
   std::vector<Found> streamed_;  ///< messages found while streaming (no summary)
   std::vector<Topic> topics_;
@@ -669,18 +670,25 @@ bool McapReader::stream_record(std::uint8_t opcode, std::uint64_t offset, std::u
   return true;
 }
 
-void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
+/// Reads a chunk that no chunk index describes, adds it to chunks_; returns its records.
+std::shared_ptr<const Bytes> McapReader::add_unindexed_chunk(std::uint64_t offset, std::uint64_t length) const {
   const Bytes content = file_.read(offset + kRecordHeaderBytes, length, offset);
   const ChunkHeader h = parse_chunk(Cursor(content.data(), content.size(), name(), offset, "chunk"));
   if (!supported_compression(h.compression)) unsupported_compression(name(), offset, h.compression);
   auto records = std::make_shared<const Bytes>(decompress_chunk(h, name(), offset));
-  const std::size_t chunk = chunks_.size();
   ChunkLocation loc;
   loc.offset = offset;
   loc.length = kRecordHeaderBytes + length;
   loc.compression = h.compression;
   loc.uncompressed_size = h.uncompressed_size;
   chunks_.push_back(std::move(loc));
+  cache_.insert(chunks_.size() - 1, records);
+  return records;
+}
+
+void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
+  const std::shared_ptr<const Bytes> records = add_unindexed_chunk(offset, length);
+  const std::size_t chunk = chunks_.size() - 1;
   for_each_record_in_chunk(*records, name(), offset,
                            [&](std::uint8_t op, const std::uint8_t* data, std::size_t size, std::uint64_t inner) {
                              if (op == kSchema) add_schema(data, size, offset);
@@ -689,7 +697,6 @@ void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
                              const MessageHeader m = parse_message_header(Cursor(data, size, name(), offset, "message"));
                              streamed_.push_back({m.channel, m.log_time_ns, offset, inner, chunk + 1, inner});
                            });
-  cache_.insert(chunk, std::move(records));
 }
 
 /// One topic per channel topic; channels repeating a topic with the same type and encoding
@@ -786,8 +793,11 @@ void McapReader::scan_chunk(std::size_t chunk, const Bytes& records, std::vector
                            });
 }
 
-/// Record headers of the data section (chunks skipped by their length), for unchunked messages.
+/// Record headers of the data section, for messages outside chunks and chunks without an index
+/// (indexed chunks are skipped by their length).
 void McapReader::scan_top_level_messages(std::vector<Found>& found) const {
+  std::set<std::uint64_t> indexed;
+  for (const ChunkLocation& c : chunks_) indexed.insert(c.offset);
   for (std::uint64_t pos = data_start_; pos < data_end_;) {
     const Bytes head = file_.read(pos, std::min<std::uint64_t>(kRecordHeaderBytes, data_end_ - pos), pos);
     Cursor c(head.data(), head.size(), name(), pos, "record");
@@ -799,6 +809,9 @@ void McapReader::scan_top_level_messages(std::vector<Found>& found) const {
       const Bytes m = file_.read(pos + kRecordHeaderBytes, std::min<std::uint64_t>(length, kMessageHeaderBytes), pos);
       const MessageHeader h = parse_message_header(Cursor(m.data(), m.size(), name(), pos, "message"));
       found.push_back({h.channel, h.log_time_ns, pos, 0, 0, pos});
+    } else if (opcode == kChunk && indexed.count(pos) == 0) {
+      const std::shared_ptr<const Bytes> records = add_unindexed_chunk(pos, length);
+      scan_chunk(chunks_.size() - 1, *records, found);
     }
     pos += kRecordHeaderBytes + length;
   }
