@@ -55,7 +55,7 @@ std::int64_t ros_time_ns(const std::uint8_t* p) {
 struct Where {
   const std::string* file = nullptr;
   std::uint64_t byte = 0;
-  std::string context;  // e.g. "in the lz4 chunk at byte 4117, at offset 77 of its data: "
+  std::string context;  // e.g. "in the lz4 chunk here, at offset 77 of its uncompressed data: "
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(*file, at_byte(byte), context + problem); }
 };
 
@@ -441,6 +441,9 @@ class ChunkCache {
   }
   void insert(std::uint64_t chunk, std::shared_ptr<const Bytes> data) {
     const std::lock_guard lock(mutex_);
+    for (const auto& entry : entries_) {
+      if (entry.first == chunk) return;  // another thread decompressed it meanwhile
+    }
     bytes_ += data->size();
     entries_.emplace_front(chunk, std::move(data));
     while (entries_.size() > 1 && (entries_.size() > kMaxChunks || bytes_ > kMaxBytes)) {
