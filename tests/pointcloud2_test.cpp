@@ -297,6 +297,20 @@ TEST(PointCloud2, NonFiniteAndOutOfSweepPointsAreDroppedAndCounted) {
   EXPECT_NEAR(s.dt_s[0], -0.1, 1e-6);
 }
 
+TEST(PointCloud2, DoublesBeyondFloatRangeAreInfiniteSoThePointIsDropped) {
+  // A float64 coordinate of 1e300 must not go through an (undefined) narrowing cast.
+  CloudBuilder b({{"x", 0, F::kFloat64, 1}, {"y", 8, F::kFloat64, 1}, {"z", 16, F::kFloat64, 1},
+                  {"intensity", 24, F::kFloat64, 1}},
+                 32, 2);
+  b.set(0, "x", 1e300), b.set(0, "y", 0.0), b.set(0, "z", 0.0), b.set(0, "intensity", 1.0);
+  b.set(1, "x", 1.0), b.set(1, "y", 2.0), b.set(1, "z", 3.0), b.set(1, "intensity", -1e300);
+  PointCloudInfo info;
+  const Sweep s = b.decode(kRos1, &info);
+  EXPECT_EQ(info.dropped_nonfinite, 1u);
+  ASSERT_EQ(s.size(), 1u);
+  EXPECT_EQ(s.intensity[0], -std::numeric_limits<float>::infinity());
+}
+
 TEST(PointCloud2, ErrorsNameWhatIsWrong) {
   CloudBuilder ok(xyz_fields(), 12, 2);
   ok.cloud.is_bigendian = true;

@@ -515,6 +515,18 @@ TEST(MessageDefinitions, Md5MismatchWithMatchingFieldsIsAWarning) {
   EXPECT_FALSE(check_definition(topic_with("std_msgs/String", "string data\n", false)).checked);
 }
 
+TEST(MessageDefinitions, AMissingSectionIsTakenFromTheBuiltInOnceWithAWarning) {
+  const MessageDefinition* d = builtin_definition("sensor_msgs/PointCloud2");
+  std::string text = d->ros2_text;
+  const std::string section = "\n" + std::string(80, '=') + "\nMSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n";
+  ASSERT_NE(text.find(section), std::string::npos);
+  text.erase(text.find(section), section.size());
+  const DefinitionCheck check = check_definition(topic_with(d->ros2_type, text, true));
+  EXPECT_TRUE(check.checked);
+  ASSERT_EQ(check.warnings.size(), 1u);
+  EXPECT_NE(check.warnings[0].find("no section for builtin_interfaces/Time"), std::string::npos);
+}
+
 TEST(MessageDefinitions, Oem7HeaderLayoutComesFromTheStoredDefinition) {
   const MessageDefinition* d = builtin_definition("novatel_oem7_msgs/INSPVAX");
   const DefinitionCheck ros1 = check_definition(topic_with(d->type, d->ros1_text, false));

@@ -556,16 +556,15 @@ struct Flattener {
   std::string opaque;
   std::vector<std::string>& warnings;
   std::vector<FlatField> out;
+  std::set<std::string> assumed;  ///< sections taken from the built-in definition (warned once)
 
   const MsgSpec* spec(const std::string& type) {
     if (const MsgSpec* s = def.find(type)) return s;
-    if (fallback != nullptr) {
-      if (const MsgSpec* s = fallback->find(type)) {
-        warnings.push_back("the stored definition has no section for " + type + "; the built-in one is assumed");
-        return s;
-      }
+    const MsgSpec* s = fallback != nullptr ? fallback->find(type) : nullptr;
+    if (s != nullptr && assumed.insert(type).second) {
+      warnings.push_back("the stored definition has no section for " + type + "; the built-in one is assumed");
     }
-    return nullptr;
+    return s;
   }
 
   void add(const std::string& type, const std::string& prefix, int depth) {
@@ -604,7 +603,7 @@ std::vector<FlatField> expected_fields(const std::vector<FlatField>& all, const 
 std::string describe(const FlatField& f) { return "'" + f.type + " " + f.path + "'"; }
 
 void compare_fields(const std::vector<FlatField>& expected, const std::vector<FlatField>& stored, bool whole,
-                    const std::string& type, const std::function<void(const std::string&)>& fail) {
+                    const std::function<void(const std::string&)>& fail) {
   for (std::size_t i = 0; i < expected.size(); ++i) {
     if (i >= stored.size()) fail("field " + describe(expected[i]) + " is missing");
     if (!(stored[i] == expected[i])) {
@@ -656,12 +655,12 @@ DefinitionCheck check_definition(const Topic& topic, const std::string& source) 
       builtin->type, ros2 ? builtin->ros2_text : builtin->ros1_text, ros2, "built-in " + builtin->type);
   const CheckRule* rule = check_rule(builtin->type);
   const std::string opaque = rule != nullptr ? rule->opaque : "";
-  Flattener mine{reference, nullptr, ros2, opaque, out.warnings, {}};
-  Flattener theirs{stored, &reference, ros2, opaque, out.warnings, {}};
+  Flattener mine{reference, nullptr, ros2, opaque, out.warnings, {}, {}};
+  Flattener theirs{stored, &reference, ros2, opaque, out.warnings, {}, {}};
   mine.add(reference.main_type, "", 0);
   theirs.add(stored.main_type, "", 0);
   compare_fields(expected_fields(mine.out, rule), theirs.out, rule == nullptr || *rule->last_read == '\0',
-                 builtin->type, [&](const std::string& what) {
+                 [&](const std::string& what) {
                    throw InputError(file, location,
                                     "the stored definition of " + topic.type + " is not the one insalign reads: " +
                                         what + " (a custom fork of the message?)");
