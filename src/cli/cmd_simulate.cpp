@@ -34,6 +34,8 @@ struct SimulateOptions {
   std::string scene = "intersection";
   std::string trajectory = "figure8";
   std::string ins_axes = "x-forward";
+  std::string ins_error = "rtk-fixed";
+  double ins_drift_m_per_sqrt_s = -1.0;  ///< < 0: the model's default
   std::string extrinsic;
   std::string pcd_encoding = "binary_compressed";
   int frames = 0;
@@ -63,6 +65,10 @@ void apply_options(SimulateOptions& o) {
   sim::SimConfig& c = o.config;
   c.scene = o.scene == "feature-poor" ? sim::SceneKind::kFeaturePoor : sim::SceneKind::kIntersection;
   c.ins_axes = o.ins_axes == "y-forward" ? sim::InsAxes::kYForward : sim::InsAxes::kXForward;
+  if (!sim::parse_ins_error_model(o.ins_error, c.ins_error.model))
+    throw UsageError("--ins-error \"" + o.ins_error + "\" is neither rtk-fixed nor drift");
+  if (o.ins_drift_m_per_sqrt_s >= 0.0)
+    c.ins_error.drift_horizontal_m_per_sqrt_s = c.ins_error.drift_vertical_m_per_sqrt_s = o.ins_drift_m_per_sqrt_s;
   if (o.trajectory == "figure8") {
     c.trajectory = sim::TrajectoryKind::kFigure8;
   } else if (o.trajectory == "straight") {
@@ -99,6 +105,31 @@ const char* trajectory_name(sim::TrajectoryKind k) {
     case sim::TrajectoryKind::kRecorded: return "recorded";
   }
   return "?";
+}
+
+// The INS error's ground truth; only written when it differs from the default RTK-fixed model
+// without events, so a default dataset stays byte for byte what it always was.
+bool has_ins_error_truth(const sim::World& w) {
+  return w.config.ins_error.model != sim::InsErrorModel::kRtkFixed || !w.ins_events.empty();
+}
+
+nlohmann::json ins_error_json(const sim::World& w) {
+  const sim::InsErrorConfig& e = w.config.ins_error;
+  nlohmann::json j;
+  j["model"] = sim::ins_error_model_name(e.model);
+  j["drift_horizontal_m_per_sqrt_s"] = e.drift_horizontal_m_per_sqrt_s;
+  j["drift_vertical_m_per_sqrt_s"] = e.drift_vertical_m_per_sqrt_s;
+  j["drift_heading_deg_per_sqrt_s"] = e.drift_heading_deg_per_sqrt_s;
+  j["events"] = nlohmann::json::array();
+  for (const sim::InsEvent& ev : w.ins_events) {
+    const Vec3 rpy_deg = ev.rpy_error_rad * kDegPerRad;
+    j["events"].push_back({{"kind", sim::ins_event_name(ev.kind)},
+                           {"t_begin_s", ev.t_begin_s},
+                           {"t_end_s", ev.t_end_s},
+                           {"error_m", {ev.error_m.x(), ev.error_m.y(), ev.error_m.z()}},
+                           {"rpy_error_deg", {rpy_deg.x(), rpy_deg.y(), rpy_deg.z()}}});
+  }
+  return j;
 }
 
 nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, std::size_t points) {
@@ -141,6 +172,7 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   cfg["fiducial_noise_m"] = c.fiducial_noise_m;
   cfg["pcd_encoding"] = o.pcd_encoding;
   j["config"] = cfg;
+  if (has_ins_error_truth(w)) j["ins_error"] = ins_error_json(w);
   return j;
 }
 
@@ -274,8 +306,32 @@ Command make_simulate_command() {
     sub->add_option("--ins-axes", o->ins_axes, "INS body axes: x-forward (REP-103) | y-forward (NovAtel)")
         ->check(CLI::IsMember({"x-forward", "y-forward"}))
         ->capture_default_str();
-    sub->add_option("--ins-noise-scale", c.ins_noise_scale, "INS noise relative to a NovAtel-class unit (0 = perfect)")
+    sub->add_option("--ins-noise-scale", c.ins_noise_scale,
+                    "INS white noise (1 cm, 0.01/0.01/0.03 deg) and RTK-fixed bounded error, relative to a NovAtel-class unit "
+                    "(0 = perfect)")
         ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
+    sub->add_option("--ins-error", o->ins_error,
+                    "INS slow error: rtk-fixed (bounded: 1 cm horizontal, 1.5 cm vertical, 30 s Gauss-Markov) | drift (random "
+                    "walk from zero at the start: 5 mm/sqrt(s) per axis, heading 0.002 deg/sqrt(s))")
+        ->check(CLI::IsMember({"rtk-fixed", "drift"}))
+        ->capture_default_str();
+    sub->add_option("--ins-drift-m-per-sqrt-s", o->ins_drift_m_per_sqrt_s, "drift model: position random walk per axis (default 0.005)")
+        ->check(CLI::Range(0.0, 1.0));
+    sub->add_option("--ins-heading-drift-deg-per-sqrt-s", c.ins_error.drift_heading_deg_per_sqrt_s, "drift model: heading random walk")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
+                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float")
+        ->check(CLI::Range(0, 100))
+        ->capture_default_str();
+    sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
+        ->check(CLI::Range(0, 100))
+        ->capture_default_str();
+    sub->add_option("--ins-outages", c.ins_error.outages,
+                    "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
+                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only")
+        ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();
     sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");

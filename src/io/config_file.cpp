@@ -336,6 +336,27 @@ std::vector<P> build_table() {
                           std::vector<std::pair<std::string, sim::InsAxes>>{{"x_forward", sim::InsAxes::kXForward},
                                                                             {"y_forward", sim::InsAxes::kYForward}}));
   t.push_back(field("sim.ins_noise_scale", "INS noise: 1 = NovAtel class, 0 = perfect poses", INSALIGN_AT(sim.ins_noise_scale)));
+  t.push_back(enumeration("sim.ins_error.model", "INS slow error: rtk_fixed (bounded) or drift (random walk from the start)",
+                          INSALIGN_AT(sim.ins_error.model),
+                          std::vector<std::pair<std::string, sim::InsErrorModel>>{{"rtk_fixed", sim::InsErrorModel::kRtkFixed},
+                                                                                  {"drift", sim::InsErrorModel::kDrift}}));
+  t.push_back(field("sim.ins_error.drift_horizontal_m_per_sqrt_s", "drift: position random walk per horizontal axis, m/sqrt(s)",
+                    INSALIGN_AT(sim.ins_error.drift_horizontal_m_per_sqrt_s)));
+  t.push_back(field("sim.ins_error.drift_vertical_m_per_sqrt_s", "drift: vertical position random walk, m/sqrt(s)",
+                    INSALIGN_AT(sim.ins_error.drift_vertical_m_per_sqrt_s)));
+  t.push_back(field("sim.ins_error.drift_heading_deg_per_sqrt_s", "drift: heading random walk, deg/sqrt(s)",
+                    INSALIGN_AT(sim.ins_error.drift_heading_deg_per_sqrt_s)));
+  t.push_back(field("sim.ins_error.float_episodes", "RTK float episodes (error ramping up and back)", INSALIGN_AT(sim.ins_error.float_episodes)));
+  t.push_back(field("sim.ins_error.float_peak_m", "float episode: peak position error, m", INSALIGN_AT(sim.ins_error.float_peak_m)));
+  t.push_back(field("sim.ins_error.float_duration_s", "float episode: length, s", INSALIGN_AT(sim.ins_error.float_duration_s)));
+  t.push_back(field("sim.ins_error.wrong_fixes", "wrong RTK fixes (a jump, reported as a normal fix)", INSALIGN_AT(sim.ins_error.wrong_fixes)));
+  t.push_back(field("sim.ins_error.wrong_fix_jump_m", "wrong fix: position jump, m", INSALIGN_AT(sim.ins_error.wrong_fix_jump_m)));
+  t.push_back(field("sim.ins_error.wrong_fix_duration_s", "wrong fix: length, s", INSALIGN_AT(sim.ins_error.wrong_fix_duration_s)));
+  t.push_back(field("sim.ins_error.outages", "GNSS outages (the INS coasts)", INSALIGN_AT(sim.ins_error.outages)));
+  t.push_back(field("sim.ins_error.outage_duration_s", "outage: length, s", INSALIGN_AT(sim.ins_error.outage_duration_s)));
+  t.push_back(field("sim.ins_error.outage_error_m", "outage: position error at its end (grows quadratically), m", INSALIGN_AT(sim.ins_error.outage_error_m)));
+  t.push_back(field("sim.ins_error.outage_tilt_deg", "outage: roll and pitch error at its end, deg", INSALIGN_AT(sim.ins_error.outage_tilt_deg)));
+  t.push_back(field("sim.ins_error.outage_heading_deg", "outage: heading error at its end, deg", INSALIGN_AT(sim.ins_error.outage_heading_deg)));
   t.push_back(field("sim.time_offset_s", "true LiDAR-to-INS time offset (t_ins = t_lidar + offset), s", INSALIGN_AT(sim.time_offset_s)));
   t.push_back(field("sim.init_rot_err_deg", "rotation error of the written initial guess, deg", INSALIGN_AT(sim.init_rot_err_deg)));
   t.push_back(field("sim.init_trans_err_m", "translation error of the written initial guess, m", INSALIGN_AT(sim.init_trans_err_m)));

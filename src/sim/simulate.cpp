@@ -22,16 +22,13 @@ constexpr double kPi = std::numbers::pi;
 /// LiDAR clock of the start of the motion (INS clock: the same number); frames end 1/rate later.
 constexpr double kEpochS = 1700000000.0;
 constexpr double kTruthRateHz = 200.0;
-// NovAtel-class INS noise at scale 1 (1 sigma).
+// NovAtel-class INS white noise at scale 1 (1 sigma); the slow errors are in ins_error.cpp.
 constexpr double kPosWhiteM = 0.01;
-// RTK-fixed GNSS/INS position error is bounded, not a random walk: a first-order Gauss-Markov
-// process per axis, stationary from the first sample (NovAtel RTK: ~1 cm + 1 ppm horizontal RMS,
-// vertical about 1.5 times worse), decorrelating over tens of seconds as satellites and multipath
-// change. Its mean over a drive is what no LiDAR data can reveal: it sets the floor of the
-// fiducial z accuracy (README, stage 3).
-constexpr double kPosDriftSigmaHorizontalM = 0.01;
-constexpr double kPosDriftSigmaVerticalM = 0.015;
-constexpr double kPosDriftCorrelationS = 30.0;
+// What the INS states for its normal (RTK fixed) solution at scale 1, per axis: the white noise
+// and the bounded error together (sqrt(1^2 + 1^2) cm horizontal, sqrt(1^2 + 1.5^2) cm vertical).
+constexpr double kStatedHorizontalM = 0.0141;
+constexpr double kStatedVerticalM = 0.018;
+constexpr double kStatedFloorM = 0.005;  // no INS claims to be exact
 constexpr double kRollPitchWhiteDeg = 0.01;
 constexpr double kYawWhiteDeg = 0.03;
 constexpr std::uint64_t kStreamFramePoses = 1;
@@ -56,6 +53,7 @@ void validate(const SimConfig& c) {
   if (c.trajectory == TrajectoryKind::kRecorded && c.recorded_trajectory.size() < 2)
     fail("a recorded trajectory needs at least 2 poses");
   if (c.T_ins_lidar && !c.T_ins_lidar->matrix().allFinite()) fail("given extrinsic is not finite");
+  validate_ins_error(c.ins_error);
 }
 
 // Random roof mount, physically placed: INS near the rear axle, LiDAR on the roof.
@@ -101,6 +99,19 @@ std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, co
   return out;
 }
 
+// The INS error of the configured model and its events, each from its own random stream.
+void build_ins_error(World& w) {
+  const SimConfig& c = w.config;
+  if (c.ins_error.model == InsErrorModel::kRtkFixed) {
+    w.drift = make_rtk_fixed_drift(c.ins_noise_scale, w.poses_true.t_begin(), w.poses_true.t_end(),
+                                   hash_counters(c.seed, 0xD21F7));
+  } else {
+    // Exact at the start of the first sweep, walking from there.
+    w.walk = make_walk(c.ins_error, kEpochS, w.poses_true.t_end(), hash_counters(c.seed, 0x3A1C));
+  }
+  w.ins_events = place_ins_events(c.ins_error, kEpochS, w.frame_times_s.back(), hash_counters(c.seed, 0xE7E47));
+}
+
 }  // namespace
 
 LidarModel lidar_model(const std::string& name) {
@@ -130,16 +141,6 @@ LidarModel lidar_model(const std::string& name) {
 }
 
 std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64", "vlp16"}; }
-
-Vec3 InsDrift::at(double t_s) const {
-  if (knots_m.empty()) return Vec3::Zero();
-  const double f = (t_s - t0_s) / knot_spacing_s;
-  if (f <= 0.0) return knots_m.front();
-  const std::size_t i = static_cast<std::size_t>(f);
-  if (i + 1 >= knots_m.size()) return knots_m.back();
-  const double w = f - static_cast<double>(i);
-  return (1.0 - w) * knots_m[i] + w * knots_m[i + 1];
-}
 
 std::string frame_name(double t_s) {
   char buf[64];
@@ -191,23 +192,7 @@ World build_world(const SimConfig& config) {
   Rng fid_rng(hash_counters(config.seed, 0xF1D));
   w.fiducials = place_fiducials(config, *w.scene, trajectory.loop_xy(), fid_rng);
 
-  Rng drift_rng(hash_counters(config.seed, 0xD21F7));
-  w.drift.t0_s = w.poses_true.t_begin();
-  w.drift.knot_spacing_s = 1.0;
-  const Vec3 sigma = config.ins_noise_scale *
-                     Vec3(kPosDriftSigmaHorizontalM, kPosDriftSigmaHorizontalM, kPosDriftSigmaVerticalM);
-  const double a = std::exp(-w.drift.knot_spacing_s / kPosDriftCorrelationS);
-  const double innovation = std::sqrt(1.0 - a * a);
-  auto draw = [&]() {  // one statement per axis: argument evaluation order is unspecified
-    Vec3 v;
-    for (int axis = 0; axis < 3; ++axis) v[axis] = drift_rng.normal(sigma[axis]);
-    return v;
-  };
-  Vec3 error = draw();  // stationary from the start: the INS is no more exact at t0 than later
-  for (double t = w.poses_true.t_begin(); t <= w.poses_true.t_end() + 1.0; t += w.drift.knot_spacing_s) {
-    w.drift.knots_m.push_back(error);
-    error = a * error + innovation * draw();
-  }
+  build_ins_error(w);
   return w;
 }
 
@@ -291,21 +276,63 @@ Sweep render_sweep(const World& world, std::size_t k) {
   return sweep;
 }
 
+InsSlowError ins_slow_error(const World& world, double t_ins_s) {
+  InsSlowError e;
+  if (world.config.ins_error.model == InsErrorModel::kRtkFixed) {
+    e.position_m = world.drift.at(t_ins_s);
+  } else {
+    e.position_m = world.walk.position.at(t_ins_s);
+    e.rpy_world_rad.z() = world.walk.heading_at(t_ins_s);
+  }
+  for (const InsEvent& event : world.ins_events) {
+    if (t_ins_s < event.t_begin_s || t_ins_s >= event.t_end_s) continue;
+    e.position_m += event_position_error(event, t_ins_s);
+    e.rpy_world_rad += event_rpy_error_rad(event, t_ins_s);
+  }
+  return e;
+}
+
+InsQuality ins_quality(const World& world, double t_ins_s) {
+  const SimConfig& c = world.config;
+  double h = c.ins_noise_scale * kStatedHorizontalM, v = c.ins_noise_scale * kStatedVerticalM;
+  if (c.ins_error.model == InsErrorModel::kDrift) {
+    // White noise plus the walk's 1 sigma so far: an honest INS knows it is drifting.
+    const double dt = std::max(0.0, t_ins_s - kEpochS);
+    const double white = c.ins_noise_scale * kPosWhiteM;
+    h = std::sqrt(white * white + std::pow(c.ins_error.drift_horizontal_m_per_sqrt_s, 2) * dt);
+    v = std::sqrt(white * white + std::pow(c.ins_error.drift_vertical_m_per_sqrt_s, 2) * dt);
+  }
+  return event_quality(world.ins_events, t_ins_s, std::max(kStatedFloorM, h), std::max(kStatedFloorM, v));
+}
+
+std::vector<InsQuality> ins_quality_series(const World& world, const std::vector<double>& t_ins_s) {
+  std::vector<InsQuality> out;
+  out.reserve(t_ins_s.size());
+  for (double t : t_ins_s) out.push_back(ins_quality(world, t));
+  return out;
+}
+
 std::vector<StampedPose> reported_poses(const World& world, const std::vector<double>& t_ins_s, std::uint64_t stream) {
   const double scale = world.config.ins_noise_scale;
+  const bool rtk_fixed = world.config.ins_error.model == InsErrorModel::kRtkFixed;
   std::vector<StampedPose> out;
   out.reserve(t_ins_s.size());
   for (std::size_t i = 0; i < t_ins_s.size(); ++i) {
     const double t = t_ins_s[i];
     Iso3 T = world.poses_true.T_world_ins(t);
+    // RTK fixed at scale 0 is exact (the bounded error scales with the white noise).
+    const InsSlowError e = rtk_fixed && scale <= 0.0 && world.ins_events.empty() ? InsSlowError{} : ins_slow_error(world, t);
     if (scale > 0.0) {
       const std::uint64_t key = hash_counters(world.config.seed, 0xA11 + stream, i);
       double g[6];
       for (int q = 0; q < 6; ++q) g[q] = normal_from_bits(splitmix64(key ^ (2 * q + 1)), splitmix64(key ^ (2 * q + 2)));
-      T.translation() += world.drift.at(t) + scale * kPosWhiteM * Vec3(g[0], g[1], g[2]);
+      T.translation() += e.position_m + scale * kPosWhiteM * Vec3(g[0], g[1], g[2]);
       const Vec3 rpy_deg = scale * Vec3(kRollPitchWhiteDeg * g[3], kRollPitchWhiteDeg * g[4], kYawWhiteDeg * g[5]);
       T.linear() = T.linear() * rotation_from_rpy(rpy_deg * kRadPerDeg);
+    } else if (!e.position_m.isZero(0.0)) {
+      T.translation() += e.position_m;
     }
+    if (!e.rpy_world_rad.isZero(0.0)) T.linear() = rotation_from_rpy(e.rpy_world_rad) * T.linear();
     out.push_back({t, T});
   }
   return out;
@@ -350,6 +377,8 @@ SimDataset simulate(const SimConfig& config, const std::function<void(std::size_
   out.time_offset_s = config.time_offset_s;
   out.fiducials = world.fiducials;
   out.ins_height_m = world.ins_height_m;
+  out.ins_events = world.ins_events;
+  out.ins_quality = ins_quality_series(world, t_end);
   return out;
 }
 
@@ -359,6 +388,7 @@ Dataset to_dataset(const SimDataset& sim) {
   d.poses = sim.poses;
   d.fiducials = sim.fiducials;
   d.T_ins_lidar_init = sim.T_ins_lidar_init;
+  d.ins_quality = sim.ins_quality;
   return d;
 }
 

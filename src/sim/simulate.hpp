@@ -14,6 +14,7 @@
 #include "core/geometry.hpp"
 #include "core/pose_stream.hpp"
 #include "core/sweep.hpp"
+#include "sim/ins_error.hpp"
 
 namespace insalign::sim {
 
@@ -44,8 +45,10 @@ struct SimConfig {
   InsAxes ins_axes = InsAxes::kXForward;
   /// 1 = NovAtel RTK class: position white ~1 cm plus a slow bounded error (Gauss-Markov, 1 cm
   /// horizontal, 1.5 cm vertical, 30 s correlation); attitude white ~0.01 deg roll/pitch,
-  /// ~0.03 deg yaw. 0 = perfect poses.
+  /// ~0.03 deg yaw. 0 = perfect poses. Scales the white noise of every INS error model and the
+  /// bounded error of kRtkFixed; the drift rates and events of ins_error are absolute.
   double ins_noise_scale = 1.0;
+  InsErrorConfig ins_error;         ///< slow error model and events (ins_error.hpp)
   double time_offset_s = 0.0;       ///< t_ins = t_lidar + offset
   std::optional<Iso3> T_ins_lidar;  ///< unset: random roof mount (any yaw, roll/pitch within 10 deg)
   double init_rot_err_deg = 20.0;   ///< rotation error of the written initial guess (random axis)
@@ -65,13 +68,6 @@ std::vector<std::string> lidar_model_names();
 
 struct Scene;  // primitives and their BVH (scene.hpp)
 
-/// Slow INS position error (bounded, correlated in time) sampled at knots, interpolated linearly.
-struct InsDrift {
-  double t0_s = 0.0, knot_spacing_s = 1.0;
-  std::vector<Vec3> knots_m;
-  Vec3 at(double t_s) const;
-};
-
 /// Everything that does not change from frame to frame. Built once; render_sweep is thread-safe.
 struct World {
   SimConfig config;
@@ -83,7 +79,9 @@ struct World {
   std::vector<double> frame_times_s; ///< nominal frame (sweep end) times, LiDAR clock
   std::vector<Fiducial> fiducials;   ///< surveyed (noisy) world points
   double ins_height_m = 0.0;         ///< INS origin height above the ground (mean for kRecorded)
-  InsDrift drift;
+  InsDrift drift;                    ///< kRtkFixed: the bounded position error (empty otherwise)
+  InsWalk walk;                      ///< kDrift: the random walk (empty otherwise)
+  std::vector<InsEvent> ins_events;  ///< ground truth of the INS events, time order
   std::size_t frame_count() const { return frame_times_s.size(); }
 };
 
@@ -93,6 +91,18 @@ World build_world(const SimConfig& config);
 /// Frame k: one revolution ending at frame_times_s[k], each column measured from the sensor's true
 /// pose at its own instant; t_end_s = the latest point time; name = frame_name(t_end_s).
 Sweep render_sweep(const World& world, std::size_t k);
+
+/// The INS's true slow error at an INS time (model plus events, no white noise): reported
+/// position = true + position_m (+ white); reported rotation = Rz Ry Rx(rpy_world_rad) * true.
+struct InsSlowError {
+  Vec3 position_m = Vec3::Zero();
+  Vec3 rpy_world_rad = Vec3::Zero();
+};
+InsSlowError ins_slow_error(const World& world, double t_ins_s);
+/// What the INS states about itself at an INS time (solution type, 1-sigma stddev per horizontal
+/// axis and vertical): see event_quality in ins_error.hpp.
+InsQuality ins_quality(const World& world, double t_ins_s);
+std::vector<InsQuality> ins_quality_series(const World& world, const std::vector<double>& t_ins_s);
 
 /// What the INS reports at the given INS times: truth plus noise (white per sample, drift shared).
 /// `stream` separates independent white-noise draws (e.g. per-frame file vs 100 Hz file).
@@ -116,6 +126,8 @@ struct SimDataset {                 ///< everything in memory (tests); the CLI s
   double time_offset_s = 0.0;
   std::vector<Fiducial> fiducials;  ///< surveyed (noisy) world points on the ground
   double ins_height_m = 0.0;        ///< true height of the INS origin above the ground plane
+  std::vector<InsEvent> ins_events; ///< ground truth of the INS events
+  std::vector<InsQuality> ins_quality;  ///< what the INS states, one per pose (frame time, INS clock)
 };
 
 SimDataset simulate(const SimConfig& config,
