@@ -398,6 +398,29 @@ TEST(BagFixtures, Ros1OusterLivoxTfLz4) {
   expect_vec(T_map_base.translation(), p0.pose.position, 1e-9);
 }
 
+TEST(BagFixtures, Ros1KilledRecordingIsScannedUpToItsLastWholeMessage) {
+  // rosbag's own bytes of a recording killed mid-write: no index (index_pos 0), the last chunk
+  // still open (sizes 0) with 7 whole messages, the file ending inside the 8th.
+  const auto bag = open_bag(kDir / "ros1_killed_recording.bag");
+  ASSERT_FALSE(bag->warnings().empty());
+  bool names_offset = false;
+  for (const std::string& w : bag->warnings()) names_offset |= w.find("byte 101690") != std::string::npos;
+  EXPECT_TRUE(names_offset) << "no warning names byte 101690 (the end of the last whole record): "
+                            << bag->warnings().front();
+  expect_bag(*bag,
+             {{"/hesai/pandar", "sensor_msgs/PointCloud2", 2},
+              {"/novatel/oem7/inspva", "novatel_oem7_msgs/INSPVA", 27},
+              {"/novatel/oem7/inspvax", "novatel_oem7_msgs/INSPVAX", 26}},
+             1'699'999'999'982'000'000, 1'700'000'000'242'000'000);
+  expect_sweeps(*bag, "/hesai/pandar", kHesai, 2, "hesai_lidar");
+  // The last whole messages lie in the open chunk.
+  const Oem7Inspva last = decode_oem7_inspva(read_last(*bag, "/novatel/oem7/inspva"), MessageEncoding::kRos1, "inspva");
+  EXPECT_EQ(last.header.stamp.nanoseconds(), ins_stamp_ns(26));
+  const Oem7Inspvax lastx = decode_oem7_inspvax(read_last(*bag, "/novatel/oem7/inspvax"), MessageEncoding::kRos1, "inspvax");
+  EXPECT_EQ(lastx.header.stamp.nanoseconds(), ins_stamp_ns(25));
+  EXPECT_EQ(lastx.nov_header.sequence_number, 25u);
+}
+
 // ------------------------------------------------------------------------------------- MCAP
 
 void expect_mcap(const BagReader& bag, Oem7Header::Layout oem7_layout) {
