@@ -512,6 +512,27 @@ TEST(Mcap, ChunkCrcMismatchNamesTheChunk) {
   fs::remove_all(dir);
 }
 
+TEST(Mcap, DamagedCloudChunkKeepsTheSmallMessages) {
+  const fs::path dir = temp_dir("ownchunk");
+  const std::vector<Written> messages = sample_messages(8);
+  write_sample(dir / "a.mcap", Compression::kNone, 4096, messages);
+  std::string bytes = read_raw(dir / "a.mcap");
+  const Written& cloud = messages[11];  // a 20 kB message: a chunk of its own
+  ASSERT_EQ(cloud.topic, 0u);
+  const std::size_t at = bytes.find(std::string(cloud.data.begin(), cloud.data.begin() + 64));
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 1000] = static_cast<char>(bytes[at + 1000] ^ 0x01);
+  write_raw(dir / "a.mcap", bytes);
+  const auto reader = open_mcap(dir / "a.mcap");
+  for (std::uint32_t t = 1; t < reader->topics().size(); ++t) {
+    for (const MessageRef& ref : reader->messages(t)) EXPECT_NO_THROW((void)reader->read(ref));
+  }
+  const auto clouds = reader->messages(0);
+  EXPECT_THROW((void)reader->read(clouds[0]), InputError);
+  EXPECT_NO_THROW((void)reader->read(clouds[1]));
+  fs::remove_all(dir);
+}
+
 TEST(Mcap, CorruptCompressedChunkIsAnInputError) {
   const fs::path dir = temp_dir("zstdbad");
   write_sample(dir / "a.mcap", Compression::kZstd, 4096, sample_messages(6));

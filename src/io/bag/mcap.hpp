@@ -28,7 +28,8 @@ std::unique_ptr<BagReader> open_mcap(const std::filesystem::path& path);
 
 /// Writes an MCAP file to a temporary name, renamed by close(). Profile "ros1" or "ros2" by the
 /// encodings of the topics added before the first message ("" when they mix); chunks uncompressed,
-/// zstd or lz4, closed once they hold options.chunk_bytes.
+/// zstd or lz4, closed once they hold options.chunk_bytes; a message of chunk_bytes or more gets
+/// a chunk of its own, so that small messages never share a chunk with a point cloud.
 std::unique_ptr<BagWriter> make_mcap_writer(const std::filesystem::path& path, const WriterOptions& options);
 
 /// True when the bytes start with the MCAP magic 0x89 "MCAP0\r\n".

@@ -258,6 +258,12 @@ void McapWriter::write(std::uint32_t topic, std::int64_t log_time_ns, const std:
          std::to_string(last_ns_) + " ns)");
   }
   if (!header_written_) write_header();
+  // A message that fills a chunk by itself (a point cloud) gets a chunk of its own: the small
+  // messages around it (INS at 100 Hz) then stay in small chunks, and reading all of them does
+  // not decompress every cloud of the drive.
+  if (chunk_has_messages_ && kRecordHeaderBytes + kMessageHeaderBytes + bytes.size() >= options_.chunk_bytes) {
+    flush_chunk();
+  }
   last_ns_ = log_time_ns;
   const auto t = static_cast<std::uint64_t>(log_time_ns);
   const auto channel = static_cast<std::uint16_t>(topic + 1);
