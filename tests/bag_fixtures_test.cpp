@@ -9,6 +9,7 @@
 #include <map>
 #include <regex>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/errors.hpp"
@@ -245,8 +246,9 @@ const LayoutFact kNoTime{PointTimeConvention::kNone, "", "", 0,
 
 /// Every cloud of `topic` through decode_sweep: the detected time convention, point count, the
 /// first point (storage order) with its time, and t_end_s = the latest point time.
+/// `missing`: points per cloud with NaN coordinates (dropped by the decoder).
 void expect_sweeps(const BagReader& bag, const std::string& topic, const LayoutFact& layout, std::size_t n_sweeps,
-                   const std::string& frame_id) {
+                   const std::string& frame_id, std::size_t missing = 0) {
   const auto refs = bag.messages(topic_index(bag, topic));
   ASSERT_EQ(refs.size(), n_sweeps);
   const MessageEncoding enc = topic_of(bag, topic).encoding;
@@ -263,18 +265,20 @@ void expect_sweeps(const BagReader& bag, const std::string& topic, const LayoutF
     EXPECT_EQ(info.frame_id, frame_id);
     EXPECT_NEAR(info.header_stamp_s, static_cast<double>(f.stamp_ns) * 1e-9, kTimeTol);
     EXPECT_EQ(info.points, f.points);
-    EXPECT_EQ(info.dropped_nonfinite + info.dropped_time_outside, 0u);
-    ASSERT_EQ(s.size(), f.points);
+    EXPECT_EQ(info.dropped_nonfinite, missing);
+    EXPECT_EQ(info.dropped_time_outside, 0u);
+    const std::size_t n = f.points - missing;
+    ASSERT_EQ(s.size(), n);
     EXPECT_NEAR(s.p_lidar[0].x(), f.first_xyz.x(), kXyzTol);
     EXPECT_NEAR(s.p_lidar[0].y(), f.first_xyz.y(), kXyzTol);
     EXPECT_NEAR(s.p_lidar[0].z(), f.first_xyz.z(), kXyzTol);
-    ASSERT_EQ(s.intensity.size(), f.points);
+    ASSERT_EQ(s.intensity.size(), n);
     EXPECT_EQ(s.intensity[0], f.first_intensity);
     EXPECT_NEAR(s.t_end_s, f.t_end_s, kTimeTol);
     if (layout.convention == PointTimeConvention::kNone) {
       EXPECT_FALSE(s.has_time());
     } else {
-      ASSERT_EQ(s.dt_s.size(), f.points);
+      ASSERT_EQ(s.dt_s.size(), n);
       EXPECT_NEAR(s.t_end_s + s.dt_s[0], f.first_t_s, kTimeTol);
       EXPECT_EQ(*std::max_element(s.dt_s.begin(), s.dt_s.end()), 0.0f);  // t_end is a point's time
       EXPECT_NEAR(*std::min_element(s.dt_s.begin(), s.dt_s.end()), f.first_t_s - f.t_end_s, kTimeTol);
@@ -282,11 +286,38 @@ void expect_sweeps(const BagReader& bag, const std::string& topic, const LayoutF
     if (layout.ring_field.empty()) {
       EXPECT_TRUE(s.ring.empty());
     } else {
-      ASSERT_EQ(s.ring.size(), f.points);
+      ASSERT_EQ(s.ring.size(), n);
       EXPECT_EQ(s.ring.front(), 0);
       EXPECT_EQ(s.ring.back(), layout.last_ring);
     }
   }
+}
+
+
+/// /tf (map -> odom, odom -> base_link; first and last) and /tf_static (base_link -> gnss).
+void expect_tf(const BagReader& bag, MessageEncoding enc) {
+  const Quaternion q_map_odom{0.0, 0.0, 0.043619387365336, 0.9990482215818578};
+  for (auto [n, sample] : {std::pair{0, kFirst}, std::pair{35, kLast}}) {
+    const TFMessage tf = decode_tf_message(read_nth(bag, "/tf", n), enc, "tf");
+    ASSERT_EQ(tf.transforms.size(), 2u);
+    EXPECT_EQ(tf.transforms[0].header.frame_id, "map");
+    EXPECT_EQ(tf.transforms[0].child_frame_id, "odom");
+    EXPECT_EQ(tf.transforms[0].header.stamp.nanoseconds(), ins_stamp_ns(n));
+    expect_vec(tf.transforms[0].translation, {100.0, 200.0, 0.0}, kMetreTol);
+    expect_quat(tf.transforms[0].rotation, q_map_odom);
+    EXPECT_EQ(tf.transforms[1].header.frame_id, "odom");
+    EXPECT_EQ(tf.transforms[1].child_frame_id, "base_link");
+    expect_vec(tf.transforms[1].translation, sample.p_odom_m, kMetreTol);
+    expect_quat(tf.transforms[1].rotation, sample.q_enu_base);
+  }
+  const TFMessage st = decode_tf_message(read_first(bag, "/tf_static"), enc, "tf_static");
+  ASSERT_EQ(st.transforms.size(), 1u);
+  EXPECT_EQ(st.transforms[0].header.frame_id, "base_link");
+  EXPECT_EQ(st.transforms[0].child_frame_id, "gnss");
+  EXPECT_EQ(st.transforms[0].header.stamp.nanoseconds(), ins_stamp_ns(0));
+  expect_vec(st.transforms[0].translation, {0.45, -0.1, 1.35}, kMetreTol);
+  expect_quat(st.transforms[0].rotation, {0.0, 0.0, -0.7071067811865475, 0.7071067811865476});
+
 }
 
 // ------------------------------------------------------------------------------------ ROS 1
@@ -366,29 +397,9 @@ TEST(BagFixtures, Ros1OusterLivoxTfLz4) {
   expect_vec(p1.pose.position, {109.09001929664821, 222.19671257611276, 0.5165}, kMetreTol);
   expect_quat(p1.pose.orientation, {0.010215668327015755, 0.011859958274127565, 0.4603014503020097, 0.8876246708830456});
 
-  const Quaternion q_map_odom{0.0, 0.0, 0.043619387365336, 0.9990482215818578};
-  for (auto [n, sample] : {std::pair{0, kFirst}, std::pair{35, kLast}}) {
-    const TFMessage tf = decode_tf_message(read_nth(*bag, "/tf", n), enc, "tf");
-    ASSERT_EQ(tf.transforms.size(), 2u);
-    EXPECT_EQ(tf.transforms[0].header.frame_id, "map");
-    EXPECT_EQ(tf.transforms[0].child_frame_id, "odom");
-    EXPECT_EQ(tf.transforms[0].header.stamp.nanoseconds(), ins_stamp_ns(n));
-    expect_vec(tf.transforms[0].translation, {100.0, 200.0, 0.0}, kMetreTol);
-    expect_quat(tf.transforms[0].rotation, q_map_odom);
-    EXPECT_EQ(tf.transforms[1].header.frame_id, "odom");
-    EXPECT_EQ(tf.transforms[1].child_frame_id, "base_link");
-    expect_vec(tf.transforms[1].translation, sample.p_odom_m, kMetreTol);
-    expect_quat(tf.transforms[1].rotation, sample.q_enu_base);
-  }
-  const TFMessage st = decode_tf_message(read_first(*bag, "/tf_static"), enc, "tf_static");
-  ASSERT_EQ(st.transforms.size(), 1u);
-  EXPECT_EQ(st.transforms[0].header.frame_id, "base_link");
-  EXPECT_EQ(st.transforms[0].child_frame_id, "gnss");
-  EXPECT_EQ(st.transforms[0].header.stamp.nanoseconds(), ins_stamp_ns(0));
-  expect_vec(st.transforms[0].translation, {0.45, -0.1, 1.35}, kMetreTol);
-  expect_quat(st.transforms[0].rotation, {0.0, 0.0, -0.7071067811865475, 0.7071067811865476});
-
+  expect_tf(*bag, enc);
   // The chain map -> odom -> base_link -> gnss at the first stamp: the gnss origin in map.
+  const TFMessage st = decode_tf_message(read_first(*bag, "/tf_static"), enc, "tf_static");
   const TFMessage tf0 = decode_tf_message(read_first(*bag, "/tf"), enc, "tf");
   const Iso3 T_map_gnss = transform_from(tf0.transforms[0], "tf") * transform_from(tf0.transforms[1], "tf") *
                           transform_from(st.transforms[0], "tf_static");
@@ -503,6 +514,39 @@ TEST(BagFixtures, McapCorruptChunkFailsNamingTheChunk) {
   EXPECT_LT(offset, 24136 + 24751);
   EXPECT_NE(what.find("mcap_corrupt_chunk.mcap"), std::string::npos) << what;
   EXPECT_NE(what.find("CRC"), std::string::npos) << what;
+}
+
+TEST(BagFixtures, McapUncompressedMoreDrivers) {
+  const auto bag = open_bag(kDir / "mcap_more_drivers_none.mcap");
+  EXPECT_TRUE(bag->warnings().empty()) << bag->warnings().front();
+  expect_bag(*bag,
+             {{"/hesai/points", "sensor_msgs/msg/PointCloud2", 3},
+              {"/velodyne_points", "sensor_msgs/msg/PointCloud2", 3},
+              {"/pose_cov", "geometry_msgs/msg/PoseWithCovarianceStamped", 36},
+              {"/tf", "tf2_msgs/msg/TFMessage", 36},
+              {"/tf_static", "tf2_msgs/msg/TFMessage", 1}},
+             1'699'999'999'981'000'000, 1'700'000'000'332'000'000);
+  for (const Topic& t : bag->topics()) EXPECT_TRUE(check_definition(t).checked) << t.name;
+  // HesaiLidar_ROS_2.0's packed layout: the Hesai points with `timestamp` unaligned at byte 18.
+  expect_sweeps(*bag, "/hesai/points", kHesai, 3, "hesai_lidar");
+  // An organized Velodyne cloud (16 x 50, ring-major) with 22 missing returns (NaN) per sweep.
+  expect_sweeps(*bag, "/velodyne_points", kVelodyne, 3, "velodyne", 22);
+  const auto enc = MessageEncoding::kCdr;
+  for (auto [n, p, q] : {std::tuple{0, Vec3{108.1660329034986, 220.7105264688993, 0.499},
+                                    Quaternion{0.008143129831849718, 0.012089035212074117, 0.4872005322751789, 0.8731684751609882}},
+                         std::tuple{35, Vec3{109.09001929664821, 222.19671257611276, 0.5165},
+                                    Quaternion{0.010215668327015755, 0.011859958274127565, 0.4603014503020097, 0.8876246708830456}}}) {
+    const PoseWithCovarianceStamped m = decode_pose_with_covariance_stamped(read_nth(*bag, "/pose_cov", n), enc, "pose_cov");
+    EXPECT_EQ(m.header.stamp.nanoseconds(), ins_stamp_ns(n));
+    EXPECT_EQ(m.header.frame_id, "map");
+    expect_vec(m.pose.pose.position, p, kMetreTol);
+    expect_quat(m.pose.pose.orientation, q);
+    EXPECT_DOUBLE_EQ(m.pose.covariance[0], 0.0025);
+    const InsRecord r = to_ins_record(m, "pose_cov");
+    expect_vec(r.p_world_m, p, kMetreTol);
+    EXPECT_NEAR(r.position_stddev_m.x(), 0.05, 1e-12);
+  }
+  expect_tf(*bag, enc);
 }
 
 // ---------------------------------------------------------------------------------- rosbag2
