@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <fstream>
 #include <limits>
 #include <stdexcept>
 
+#include "core/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/formats.hpp"
 #include "io/ins/attitude.hpp"
@@ -169,6 +171,30 @@ std::pair<double, double> fitted_sweep_span(const Sweep& sweep) {
   return {sweep.t_end_s + start, sweep.t_end_s + start + span};
 }
 
+// Folders of many small files (oxts/data, velodyne_points/data) are written in full under a
+// temporary name and renamed into place: atomic as a whole without an fsync per file.
+void write_plain(const std::filesystem::path& path, std::string_view content) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out.write(content.data(), static_cast<std::streamsize>(content.size()));
+  if (!out.flush()) throw InputError(path.string(), "", "cannot write");
+}
+
+std::filesystem::path partial_dir(const std::filesystem::path& dir) {
+  std::filesystem::path p = std::filesystem::absolute(dir).lexically_normal();
+  if (p.filename().empty()) p = p.parent_path();
+  const std::filesystem::path partial = p.parent_path() / (p.filename().string() + ".partial");
+  std::filesystem::remove_all(partial);
+  ensure_writable_dir(partial / "data");
+  return partial;
+}
+
+void move_into_place(const std::filesystem::path& partial, const std::filesystem::path& dir) {
+  std::error_code ec;
+  std::filesystem::remove_all(dir, ec);
+  std::filesystem::rename(partial, dir, ec);
+  if (ec) throw InputError(dir.string(), "", "cannot move the written folder into place: " + ec.message());
+}
+
 }  // namespace
 
 TextExportColumns text_export_writer_columns() { return parse_text_export_columns(kTextExportWriterSpec, "writer"); }
@@ -220,14 +246,15 @@ void write_text_export(const std::filesystem::path& path, const std::vector<Stam
 
 void write_kitti_oxts(const std::filesystem::path& oxts_dir, const std::vector<StampedPose>& poses,
                       const std::vector<InsQuality>& quality, const InsLogWriteOptions& options) {
-  ensure_writable_dir(oxts_dir / "data");
-  std::vector<double> t;
   const auto samples = samples_of(poses, quality, options.origin);
+  const std::filesystem::path partial = partial_dir(oxts_dir);
+  std::vector<double> t;
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    write_file_atomic(oxts_dir / "data" / fmt::format("{:010}.txt", i), oxts_line(samples[i]));
+    write_plain(partial / "data" / fmt::format("{:010}.txt", i), oxts_line(samples[i]));
     t.push_back(samples[i].t_s);
   }
-  write_kitti_timestamps(oxts_dir / "timestamps.txt", t);
+  write_kitti_timestamps(partial / "timestamps.txt", t);
+  move_into_place(partial, oxts_dir);
 }
 
 void write_ins_log(const std::filesystem::path& path, InsLogFormat format, const std::vector<StampedPose>& poses,
@@ -244,8 +271,7 @@ void write_kitti_drive(const std::filesystem::path& drive_dir, const std::vector
                        const std::vector<StampedPose>& poses, const std::vector<InsQuality>& quality,
                        const Iso3& T_ins_lidar_calib, const InsLogWriteOptions& options) {
   write_kitti_oxts(drive_dir / "oxts", poses, quality, options);
-  const std::filesystem::path velo = drive_dir / "velodyne_points";
-  ensure_writable_dir(velo / "data");
+  const std::filesystem::path velo = partial_dir(drive_dir / "velodyne_points");
   std::vector<double> t_start, t_end, t_forward;
   for (std::size_t i = 0; i < sweeps.size(); ++i) {
     const auto [start, end] = fitted_sweep_span(sweeps[i]);
@@ -255,6 +281,7 @@ void write_kitti_drive(const std::filesystem::path& drive_dir, const std::vector
   write_kitti_timestamps(velo / "timestamps_start.txt", t_start);
   write_kitti_timestamps(velo / "timestamps_end.txt", t_end);
   write_kitti_timestamps(velo / "timestamps.txt", t_forward);
+  move_into_place(velo, drive_dir / "velodyne_points");
   std::filesystem::path drive = std::filesystem::absolute(drive_dir).lexically_normal();
   if (drive.filename().empty()) drive = drive.parent_path();
   const std::filesystem::path date_dir = drive.parent_path();

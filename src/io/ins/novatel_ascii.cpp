@@ -124,7 +124,10 @@ void set_attitude(RawRecord& r, const Where& w, const std::vector<std::string_vi
 std::optional<RawRecord> decode_inspva(const std::vector<std::string_view>& f, const Where& w, Scan& scan) {
   if (f.size() != 12) w.fail(fmt::format("INSPVA has {} fields after the header, expected 12", f.size()));
   const auto solution = solution_of_status(f[11]);
-  if (!solution) return ++scan.not_navigating[std::string(f[11])], std::nullopt;
+  if (!solution) {
+    ++scan.not_navigating[std::string(f[11])];
+    return std::nullopt;
+  }
   if (*solution == GnssSolution::kInvalid) ++scan.invalid_status[std::string(f[11])];
   RawRecord r;
   r.kind = Kind::kInspva;
@@ -141,7 +144,10 @@ std::optional<RawRecord> decode_inspva(const std::vector<std::string_view>& f, c
 std::optional<RawRecord> decode_inspvax(const std::vector<std::string_view>& f, const Where& w, Scan& scan) {
   if (f.size() < 21) w.fail(fmt::format("INSPVAX has {} fields after the header, expected 23", f.size()));
   const auto solution = solution_of_status(f[0]);
-  if (!solution) return ++scan.not_navigating[std::string(f[0])], std::nullopt;
+  if (!solution) {
+    ++scan.not_navigating[std::string(f[0])];
+    return std::nullopt;
+  }
   if (*solution == GnssSolution::kInvalid) ++scan.invalid_status[std::string(f[0])];
   RawRecord r;
   r.kind = Kind::kInspvax;
@@ -174,7 +180,10 @@ void decode_record(std::string_view name, std::string_view record, std::size_t s
   if (!long_header && header.size() < 3) w.fail(fmt::format("short header has {} fields, expected 3", header.size()));
   if (long_header) {
     if (scan.time_status.empty()) scan.time_status = std::string(header[4]);
-    if (header[4] == "UNKNOWN") return void(++scan.time_unknown);
+    if (header[4] == "UNKNOWN") {
+      ++scan.time_unknown;
+      return;
+    }
   }
   std::optional<RawRecord> r;
   if (name == "INSPVAXA") {
@@ -196,7 +205,10 @@ void scan_line(std::string_view line, std::size_t line_no, const std::string& fi
   const std::string_view name = record.substr(1, record.find(',') - 1);
   const bool ins = (record[0] == '#' && (name == "INSPVAA" || name == "INSPVAXA")) ||
                    (record[0] == '%' && name == "INSPVASA");
-  if (!ins) return void(++scan.other[fmt::format("{}{}", record[0], name)]);
+  if (!ins) {
+    ++scan.other[fmt::format("{}{}", record[0], name)];
+    return;
+  }
   ++scan.ins_records;
   const std::size_t star = record.find('*');
   if (star == std::string_view::npos || !crc_ok(record, star)) {

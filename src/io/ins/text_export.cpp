@@ -137,39 +137,57 @@ void validate(const TextExportColumns& c, const std::string& source) {
   if (c.height_datum == TextHeightDatum::kMeanSeaLevel) require_column(c.undulation, "undulation (height datum msl)", source);
 }
 
+// Keys that name a column.
+struct ColumnKey {
+  const char* key;
+  std::string TextExportColumns::*column;
+};
+constexpr ColumnKey kColumnKeys[] = {
+    {"time", &TextExportColumns::time},         {"week", &TextExportColumns::week},
+    {"lat", &TextExportColumns::latitude},      {"lon", &TextExportColumns::longitude},
+    {"height", &TextExportColumns::height},     {"undulation", &TextExportColumns::undulation},
+    {"roll", &TextExportColumns::roll},         {"pitch", &TextExportColumns::pitch},
+    {"heading", &TextExportColumns::heading},   {"yaw", &TextExportColumns::heading},
+    {"sd-east", &TextExportColumns::sd_east},   {"sd-north", &TextExportColumns::sd_north},
+    {"sd-up", &TextExportColumns::sd_up},       {"sd-horizontal", &TextExportColumns::sd_horizontal},
+    {"status", &TextExportColumns::status}};
+
+// The ':qualifier' of a column key (yaw= defaults to counter-clockwise from east).
+void apply_qualifier(TextExportColumns& c, const SpecItem& it, const std::string& source) {
+  if (it.key == "yaw") c.heading_convention = HeadingConvention::kCounterClockwiseFromEast;
+  if (it.qualifier.empty()) return;
+  if (it.key == "time") {
+    c.time_base = lookup(kTimeBases, it.qualifier, it.key, source);
+  } else if (it.key == "height") {
+    c.height_datum = lookup(kDatums, it.qualifier, it.key, source);
+  } else if (it.key == "heading" || it.key == "yaw") {
+    c.heading_convention = lookup(kHeadings, it.qualifier, it.key, source);
+  } else if (it.key == "status") {
+    c.status_code = lookup(kStatusCodes, it.qualifier, it.key, source);
+  } else {
+    throw InputError(source, "", fmt::format("{} takes no ':{}'", it.key, it.qualifier));
+  }
+}
+
 void apply_item(TextExportColumns& c, const SpecItem& it, const std::string& source) {
-  const auto q = [&](auto& table, auto& target) {
-    if (!it.qualifier.empty()) target = lookup(table, it.qualifier, it.key, source);
-  };
-  const auto plain = [&] {
-    if (!it.qualifier.empty()) throw InputError(source, "", fmt::format("{} takes no ':{}'", it.key, it.qualifier));
-  };
-  const std::string& k = it.key;
-  if (k == "time") c.time = it.value, q(kTimeBases, c.time_base);
-  else if (k == "week") c.week = it.value, plain();
-  else if (k == "lat") c.latitude = it.value, plain();
-  else if (k == "lon") c.longitude = it.value, plain();
-  else if (k == "latlon-units") c.latlon_units = lookup(kUnits, it.value, k, source);
-  else if (k == "height") c.height = it.value, q(kDatums, c.height_datum);
-  else if (k == "undulation") c.undulation = it.value, plain();
-  else if (k == "roll") c.roll = it.value, plain();
-  else if (k == "pitch") c.pitch = it.value, plain();
-  else if (k == "heading") c.heading = it.value, q(kHeadings, c.heading_convention);
-  else if (k == "yaw") c.heading = it.value, c.heading_convention = HeadingConvention::kCounterClockwiseFromEast, q(kHeadings, c.heading_convention);
-  else if (k == "units") c.units = lookup(kUnits, it.value, k, source);
-  else if (k == "frame") c.frame = lookup(kFrames, it.value, k, source);
-  else if (k == "sd-east") c.sd_east = it.value, plain();
-  else if (k == "sd-north") c.sd_north = it.value, plain();
-  else if (k == "sd-up") c.sd_up = it.value, plain();
-  else if (k == "sd-horizontal") c.sd_horizontal = it.value, plain();
-  else if (k == "status") c.status = it.value, q(kStatusCodes, c.status_code);
-  else if (k == "delimiter") c.delimiter = lookup(kDelimiters, it.value, k, source);
-  else {
+  if (it.value.empty()) throw InputError(source, "", fmt::format("{}= has no value", it.key));
+  for (const ColumnKey& k : kColumnKeys) {
+    if (it.key == k.key) {
+      c.*(k.column) = it.value;
+      return apply_qualifier(c, it, source);
+    }
+  }
+  const bool value_key = it.key == "latlon-units" || it.key == "units" || it.key == "frame" || it.key == "delimiter";
+  if (!value_key) {
     throw InputError(source, "", fmt::format("unknown key '{}' (keys: time week lat lon latlon-units height undulation "
                                              "roll pitch heading yaw units frame sd-east sd-north sd-up sd-horizontal "
-                                             "status delimiter)", k));
+                                             "status delimiter)", it.key));
   }
-  if (it.value.empty()) throw InputError(source, "", fmt::format("{}= has no value", k));
+  if (!it.qualifier.empty()) throw InputError(source, "", fmt::format("{} takes no ':{}'", it.key, it.qualifier));
+  if (it.key == "latlon-units") c.latlon_units = lookup(kUnits, it.value, it.key, source);
+  if (it.key == "units") c.units = lookup(kUnits, it.value, it.key, source);
+  if (it.key == "frame") c.frame = lookup(kFrames, it.value, it.key, source);
+  if (it.key == "delimiter") c.delimiter = lookup(kDelimiters, it.value, it.key, source);
 }
 
 }  // namespace
@@ -279,14 +297,20 @@ bool is_data_row(std::string_view line) {
   return fields.size() >= 3 && count_numeric(fields, d == TextDelimiter::kSemicolon) >= 3;
 }
 
-// A header: >= 3 cells, >= 3 of them names (not numbers), a data row within the next 5 lines.
+// A header: the line just above the first data rows with >= 3 name cells (not numbers), preferring
+// one with as many cells as the data row has fields (a units row usually has fewer).
 std::optional<std::size_t> find_generic_header(const std::vector<Line>& lines) {
-  for (std::size_t i = 0; i < lines.size() && i < kMaxHeaderSearchLines; ++i) {
-    const auto cells = split_row(lines[i].text, detect_delimiter(lines[i].text));
-    if (cells.size() < 3 || cells.size() - count_numeric(cells, false) < 3) continue;
-    for (std::size_t j = i + 1; j < lines.size() && j <= i + 5; ++j) {
-      if (is_data_row(lines[j].text)) return i;
+  for (std::size_t d = 0; d < lines.size() && d < kMaxHeaderSearchLines; ++d) {
+    if (!is_data_row(lines[d].text)) continue;
+    const std::size_t fields = split_row(lines[d].text, detect_delimiter(lines[d].text)).size();
+    std::optional<std::size_t> fallback;
+    for (std::size_t i = d; i-- > 0 && d - i <= 6;) {
+      const auto cells = split_row(lines[i].text, detect_delimiter(lines[i].text));
+      if (cells.size() < 3 || cells.size() - count_numeric(cells, false) < 3) continue;
+      if (cells.size() == fields) return i;
+      if (!fallback) fallback = i;
     }
+    if (fallback) return fallback;
   }
   return std::nullopt;
 }
@@ -401,7 +425,13 @@ double row_time(const std::vector<std::string_view>& f, const Line& line, RowCon
     case TextTimeBase::kGpsSeconds: return gps_seconds_to_unix(t);
     default: break;
   }
-  if (ctx.ix.week != kNone) return gps_to_unix(static_cast<int>(std::lround(field(f, ctx.ix.week, "week", line, ctx))), t);
+  if (ctx.ix.week != kNone) {
+    const double week = field(f, ctx.ix.week, "week", line, ctx);
+    if (!(week >= 0.0 && week <= 9999.0)) {
+      throw InputError(ctx.file, "line " + std::to_string(line.no), fmt::format("GPS week {} out of range", week));
+    }
+    return gps_to_unix(static_cast<int>(std::lround(week)), t);
+  }
   if (!ctx.inferred_week) {
     if (!ctx.hint_unix_s) {
       throw InputError(ctx.file, "line " + std::to_string(line.no),
