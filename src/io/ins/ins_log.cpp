@@ -1,6 +1,7 @@
 #include "io/ins/ins_log.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <fstream>
 
 #include "core/errors.hpp"
