@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <fstream>
 #include <map>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include "core/errors.hpp"
 
@@ -300,6 +302,31 @@ INSTANTIATE_TEST_SUITE_P(Mcap, McapRoundTrip,
                                   : info.param == Compression::kLz4 ? std::string("Lz4")
                                                                     : std::string("None");
                          });
+
+TEST(Mcap, ParallelReadsShareTheChunkCache) {
+  const fs::path file = temp_dir("threads") / "drive.mcap";
+  const std::vector<Written> messages = sample_messages(9);
+  write_sample(file, Compression::kZstd, 2048, messages);
+  const auto reader = open_mcap(file);
+  std::vector<std::pair<MessageRef, const Bytes*>> all;
+  std::map<std::uint32_t, std::size_t> next;
+  std::map<std::uint32_t, std::vector<MessageRef>> refs;
+  for (std::uint32_t t = 0; t < reader->topics().size(); ++t) refs[t] = reader->messages(t);
+  for (const Written& m : messages) all.emplace_back(refs[m.topic][next[m.topic]++], &m.data);
+  std::atomic<int> mismatches{0};
+  std::vector<std::thread> threads;
+  for (int k = 0; k < 4; ++k) {
+    threads.emplace_back([&, k] {
+      for (std::size_t i = static_cast<std::size_t>(k); i < all.size() * 3; i += 2) {  // overlapping, out of order
+        const auto& [ref, data] = all[(i * 7) % all.size()];
+        if (reader->read(ref) != *data) ++mismatches;
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(mismatches.load(), 0);
+  fs::remove_all(file.parent_path());
+}
 
 TEST(Mcap, ProfileFollowsTheEncodings) {
   const fs::path dir = temp_dir("profile");
