@@ -7,8 +7,10 @@
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <optional>
 #include <regex>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <vector>
 
@@ -595,6 +597,39 @@ TEST(BagFixtures, Rosbag2HumbleWithoutDefinitionsOrMetadata) {
     expect_sweeps(*bag, "/velodyne_points", kVelodyne, 3, "velodyne");
     expect_odometry(read_first(*bag, "/odom"), MessageEncoding::kCdr, 0, kFirst);
     expect_odometry(read_last(*bag, "/odom"), MessageEncoding::kCdr, 35, kLast);
+  }
+}
+
+// --------------------------------------------------------------------------------- threading
+
+TEST(BagFixtures, ParallelReadsReturnTheBytesOfSerialReads) {
+  // read() is thread-safe (stages load sweeps in parallel): 4 threads reading every message of a
+  // compressed bag, in different orders, through one reader and its chunk cache.
+  for (const char* name : {"ros1_velodyne_navsat_bz2.bag", "ros1_ouster_livox_tf_lz4.bag", "mcap_hesai_ouster_zstd.mcap",
+                           "mcap_hesai_ouster_lz4.mcap", "rosbag2_velodyne_split"}) {
+    SCOPED_TRACE(name);
+    const auto bag = open_bag(kDir / name);
+    std::vector<MessageRef> refs;
+    for (std::uint32_t t = 0; t < bag->topics().size(); ++t) {
+      for (const MessageRef& r : bag->messages(t)) refs.push_back(r);
+    }
+    std::vector<std::vector<std::uint8_t>> serial;
+    for (const MessageRef& r : refs) serial.push_back(bag->read(r));
+    constexpr int kThreads = 4;
+    std::vector<int> mismatches(kThreads, 0);
+    std::vector<std::thread> threads;
+    for (int k = 0; k < kThreads; ++k) {
+      threads.emplace_back([&, k] {
+        for (int pass = 0; pass < 3; ++pass) {
+          for (std::size_t j = 0; j < refs.size(); ++j) {
+            const std::size_t i = (k % 2 == 0) ? (j * 7 + k) % refs.size() : refs.size() - 1 - j;
+            if (bag->read(refs[i]) != serial[i]) ++mismatches[k];
+          }
+        }
+      });
+    }
+    for (std::thread& t : threads) t.join();
+    for (int k = 0; k < kThreads; ++k) EXPECT_EQ(mismatches[k], 0) << "thread " << k;
   }
 }
 
