@@ -28,10 +28,10 @@ const std::filesystem::path& scratch_folder() {
     fs::remove_all(dir);
     fs::create_directories(dir);
     auto writer = insalign::io::bag::make_rosbag2_writer(dir / "seed", {});
-    const std::uint32_t a = writer->add_topic({"/chatter", "std_msgs/String", insalign::io::bag::MessageEncoding::kCdr,
-                                               "string data", "ros2msg", "", 0});
-    const std::uint32_t b = writer->add_topic({"/imu", "sensor_msgs/msg/Imu", insalign::io::bag::MessageEncoding::kCdr,
-                                               "", "", "", 0});
+    const std::uint32_t a = writer->add_topic(
+        {"/chatter", "std_msgs/String", insalign::io::bag::MessageEncoding::kCdr, "string data", "ros2msg", "", 0});
+    const std::uint32_t b =
+        writer->add_topic({"/imu", "sensor_msgs/msg/Imu", insalign::io::bag::MessageEncoding::kCdr, "", "", "", 0});
     writer->write(a, 1000, {0, 1, 0, 0, 3, 0, 0, 0, 'h', 'i', 0});
     writer->write(b, 1500, {0, 1, 0, 0});
     writer->write(a, 2000, {});

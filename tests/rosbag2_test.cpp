@@ -176,7 +176,8 @@ TEST(Rosbag2, RealSplitOldSchemaFolderWithoutMetadata) {
 
 TEST(Rosbag2, RealAutowareOdometrySchema3) {
   SKIP_WITHOUT(kBags / "autoware-odometry-db3");
-  for (const fs::path& path : {kBags / "autoware-odometry-db3", kBags / "autoware-odometry-db3" / "bag_ego_trajectory.db3"}) {
+  for (const fs::path& path :
+       {kBags / "autoware-odometry-db3", kBags / "autoware-odometry-db3" / "bag_ego_trajectory.db3"}) {
     const auto bag = open_bag(path);
     ASSERT_EQ(bag->topics().size(), 1u);
     EXPECT_EQ(bag->topics()[0].name, "/localization/kinematic_state");
@@ -204,7 +205,8 @@ TEST(Rosbag2, RealAutowareOdometrySchema3) {
   }
 }
 
-void expect_mcap_folder(const fs::path& folder, const std::map<std::string, std::pair<std::string, std::uint64_t>>& want) {
+void expect_mcap_folder(const fs::path& folder,
+                        const std::map<std::string, std::pair<std::string, std::uint64_t>>& want) {
   const auto bag = open_bag(folder);
   const auto topics = by_name(*bag);
   ASSERT_EQ(topics.size(), want.size()) << bag->describe();
@@ -236,8 +238,8 @@ TEST(Rosbag2, RealMcapFolders) {
   const auto refs = talker->messages(topic_index(*talker, "/topic"));
   ASSERT_EQ(refs.size(), 10u);
   EXPECT_EQ(cdr_string(talker->read(refs[3])), "Hello, world! 3");
-  expect_mcap_folder(kBags / "cdr-test-mcap", {{"/test_topic", {"test_msgs/msg/BasicTypes", 3}},
-                                               {"/array_topic", {"test_msgs/msg/Arrays", 4}}});
+  expect_mcap_folder(kBags / "cdr-test-mcap",
+                     {{"/test_topic", {"test_msgs/msg/BasicTypes", 3}}, {"/array_topic", {"test_msgs/msg/Arrays", 4}}});
 }
 
 std::vector<std::uint8_t> pattern_bytes(std::size_t n, unsigned seed) {
@@ -250,17 +252,23 @@ std::vector<std::uint8_t> pattern_bytes(std::size_t n, unsigned seed) {
 TEST(Rosbag2, WriterRoundTrip) {
   const fs::path dir = temp_dir("roundtrip");
   const fs::path folder = dir / "drive";
-  Topic points{"/points", "sensor_msgs/PointCloud2", MessageEncoding::kCdr, "std_msgs/Header header\nuint32 height\n", "ros2msg", "", 0};
+  Topic points{"/points",
+               "sensor_msgs/PointCloud2",
+               MessageEncoding::kCdr,
+               "std_msgs/Header header\nuint32 height\n",
+               "ros2msg",
+               "",
+               0};
   Topic imu{"/imu", "sensor_msgs/msg/Imu", MessageEncoding::kCdr, "", "", "", 0};
   {
     auto writer = make_bag_writer(BagFormat::kDb3, folder);
     const std::uint32_t p = writer->add_topic(points), i = writer->add_topic(imu);
     writer->write(i, 1'000'000'000, pattern_bytes(100, 1));
     writer->write(p, 1'050'000'000, pattern_bytes(3'000'000, 2));  // a sweep-sized blob
-    writer->write(i, 1'050'000'000, {});                             // same time, empty message
+    writer->write(i, 1'050'000'000, {});                           // same time, empty message
     writer->write(i, 2'000'000'000, pattern_bytes(7, 3));
     EXPECT_THROW(writer->write(i, 1'999'999'999, {1}), InputError);  // time went backwards
-    EXPECT_FALSE(fs::exists(folder));                                 // nothing visible before close
+    EXPECT_FALSE(fs::exists(folder));                                // nothing visible before close
     writer->close();
   }
   ASSERT_TRUE(fs::exists(folder / "metadata.yaml"));
@@ -336,7 +344,8 @@ TEST(Rosbag2, ParallelReadsOfLargeBlobs) {
   constexpr std::size_t kBytes = 3'000'000;
   {
     auto writer = make_bag_writer(BagFormat::kDb3, dir / "bag");
-    const std::uint32_t id = writer->add_topic({"/points", "sensor_msgs/msg/PointCloud2", MessageEncoding::kCdr, "", "", "", 0});
+    const std::uint32_t id =
+        writer->add_topic({"/points", "sensor_msgs/msg/PointCloud2", MessageEncoding::kCdr, "", "", "", 0});
     for (int k = 0; k < kMessages; ++k) writer->write(id, k, pattern_bytes(kBytes, static_cast<unsigned>(k)));
     writer->close();
   }
@@ -469,8 +478,10 @@ TEST(Rosbag2, GarbageFile) {
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
     EXPECT_EQ(e.location(), "byte 0");
-    EXPECT_NE(std::string(e.what()).find("not a ROS 1 bag, MCAP or rosbag2 sqlite3 file (starts with \"hello, this is n"),
-              std::string::npos) << e.what();
+    EXPECT_NE(
+        std::string(e.what()).find("not a ROS 1 bag, MCAP or rosbag2 sqlite3 file (starts with \"hello, this is n"),
+        std::string::npos)
+        << e.what();
   }
   write_text(dir / "empty.bag", "");
   EXPECT_THROW(open_bag(dir / "empty.bag"), InputError);
@@ -505,7 +516,9 @@ TEST(Rosbag2, MetadataParsing) {
   EXPECT_EQ(m.relative_file_paths, (std::vector<std::string>{"a_0.mcap", "a_1.mcap"}));
   EXPECT_EQ(m.message_count, 12u);
   EXPECT_TRUE(m.warnings.empty());
-  EXPECT_EQ(parse_rosbag2_metadata("rosbag2_bagfile_information:\n  version: 12\n  relative_file_paths: []\n", "m").warnings.size(), 1u);
+  EXPECT_EQ(parse_rosbag2_metadata("rosbag2_bagfile_information:\n  version: 12\n  relative_file_paths: []\n", "m")
+                .warnings.size(),
+            1u);
   try {
     parse_rosbag2_metadata("some_other_tool:\n  x: 1\n", "m.yaml");
     FAIL();
