@@ -34,6 +34,15 @@ TEST(InsLog, NovatelIsFoundAfterOtherRecordsAndPreamble) {
   test::write_text(dir / "span.gps", text);
   EXPECT_EQ(detect_ins_log(dir / "span.gps"), InsLogFormat::kNovatelAscii);
   EXPECT_EQ(read_ins_log(dir / "span.gps", InsLogFormat::kNovatelAscii).records.size(), 1u);
+  // A binary NovAtel log is recognised, and the error says what to do.
+  test::write_text(dir / "binary.gps", std::string("\xAA\x44\x12\x1C\x2A\x00\x02\x20\x48\x00\x00\x00", 12));
+  ASSERT_EQ(detect_ins_log(dir / "binary.gps"), InsLogFormat::kNovatelAscii);
+  try {
+    read_ins_log(dir / "binary.gps", InsLogFormat::kNovatelAscii);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("convert the log to ASCII"), std::string::npos) << e.what();
+  }
 }
 
 TEST(InsLog, EveryWriterFormatIsDetectedAndReadBack) {

@@ -92,6 +92,8 @@ TEST(Sbet, WeekIsTheOneNearestTheLidarClock) {
   EXPECT_NEAR(read_sbet(path, kHint - 2.5 * 86400).records[0].t_s, gps_to_unix(2290, 200000.0), 1e-6);
   EXPECT_NEAR(read_sbet(path, kHint + 3.0 * 86400).records[0].t_s, gps_to_unix(2290, 200000.0), 1e-6);
   EXPECT_NEAR(read_sbet(path, kHint + 7.0 * 86400).records[0].t_s, gps_to_unix(2291, 200000.0), 1e-6);
+  EXPECT_TRUE(read_sbet(path, kHint + 3600.0).warnings.empty());
+  EXPECT_EQ(read_sbet(path, kHint + 3.0 * 86400).warnings.size(), 1u);  // 3 days off: seconds of day?
   expect_error(path, std::nullopt, "", "LiDAR");
 }
 

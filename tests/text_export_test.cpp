@@ -222,6 +222,16 @@ TEST(TextExport, BadRowsNameTheLine) {
   expect_row_error(h + "1,45,7,0,0,0,0\n1,45,7,0,0,0,0\n", "line 3", "repeated time");
   expect_row_error(h + "1,45,7,0,0,0,0\n2,45,7\n3,45,7,0,0,0,0\n", "line 3", "3 fields");
   expect_row_error("t,lat,lon,h,r,p\n1,45,7,0,0,0\n", "line 1", "no column 'y'");
+  // Degrees minutes seconds in a whitespace export: more fields than the header names, not shifted columns.
+  const auto ie = parse_text_export_columns("time=GPSTime:gps,lat=Latitude,lon=Longitude,height=H-Ell,roll=Roll,pitch=Pitch,heading=Heading");
+  try {
+    parse_text_export("GPSTime Latitude Longitude H-Ell Roll Pitch Heading\n"
+                      "1384000000.0 51 07 12.34 -114 02 11.1 1050.0 1.0 2.0 30.0\n", "dms.txt", ie);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location(), "line 2");
+    EXPECT_NE(std::string(e.what()).find("degrees minutes seconds"), std::string::npos) << e.what();
+  }
   // A cut-short LAST row is an interrupted write: skipped and counted.
   const auto c = parse_text_export_columns("time=t,lat=lat,lon=lon,height=h,roll=r,pitch=p,heading=y");
   const InsTrack t = parse_text_export(h + "1,45,7,0,0,0,0\n2,45,7,0,0,0,0\n3,45,7,0", "cut.csv", c);

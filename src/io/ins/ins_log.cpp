@@ -69,6 +69,9 @@ std::optional<InsLogFormat> detect_ins_log(const std::filesystem::path& path) {
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (looks_like_sbet(head) || ext == ".out" || ext == ".sbet") return InsLogFormat::kSbet;
+    // A binary NovAtel log starts with its sync bytes AA 44 12 (13: short header): read_novatel_ascii
+    // then says to convert it.
+    if (head.rfind("\xAA\x44\x12", 0) == 0 || head.rfind("\xAA\x44\x13", 0) == 0) return InsLogFormat::kNovatelAscii;
     return std::nullopt;
   }
   if (text_export_header(head)) return InsLogFormat::kTextExport;

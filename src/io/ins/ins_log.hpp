@@ -13,6 +13,8 @@
 //                                                                                 -> kNovatelAscii
 //   binary content whose first records are plausible SBET records, or binary content named
 //   *.out / *.sbet (read_ins_log then names a size that is not a multiple of 136)  -> kSbet
+//   binary content starting with NovAtel's sync bytes AA 44 12 / 13 (binary logs are not read:
+//   read_ins_log says to convert them to ASCII)                                   -> kNovatelAscii
 //   text with a header row of column names over numeric rows                      -> kTextExport
 //     (reading it needs a column mapping; without one read_ins_log throws an InputError listing the
 //     header's columns, with the mapping for Inertial Explorer and POSPac exports it recognises)

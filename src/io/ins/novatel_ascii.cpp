@@ -368,6 +368,9 @@ InsTrack parse_novatel_ascii(std::string_view text, const std::string& file, con
   if (scan.inspva.empty() && scan.inspvax.empty()) {
     std::string found = scan.ins_records > 0 ? fmt::format("{} INS records, none navigating", scan.ins_records)
                                              : (scan.other.empty() ? "nothing" : counts_text(scan.other));
+    if (text.find("\xAA\x44\x12") != std::string_view::npos || text.find("\xAA\x44\x13") != std::string_view::npos) {
+      found += "; binary NovAtel records are not read: convert the log to ASCII (NovAtel Convert)";
+    }
     throw InputError(file, "", "no usable #INSPVAA, %INSPVASA or #INSPVAXA record (found: " + found +
                                    "); log INSPVAXA (or INSPVASA at a high rate) on the receiver");
   }

@@ -138,6 +138,11 @@ InsTrack parse_sbet(std::string_view bytes, const std::string& file, std::option
     track.records.push_back(std::move(rec));
   }
   describe(track, week, *hint_unix_s);
+  const double gap_days = std::abs(track.records.front().t_s - *hint_unix_s) / 86400.0;
+  if (gap_days > 1.0) {
+    track.warnings.push_back(fmt::format("the SBET starts {:.1f} days from the LiDAR clock: if its times are seconds of "
+                                         "the day rather than of the GPS week, the week inferred is wrong", gap_days));
+  }
   return track;
 }
 

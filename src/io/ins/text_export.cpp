@@ -325,6 +325,7 @@ std::vector<std::string> header_names(std::string_view line) {
 struct Indices {
   std::size_t time, week, lat, lon, height, undulation, roll, pitch, heading, sd_e, sd_n, sd_u, sd_h, status;
   std::size_t max_used = 0;
+  std::size_t header_cells = 0;
 };
 
 constexpr std::size_t kNone = std::numeric_limits<std::size_t>::max();
@@ -348,7 +349,7 @@ std::optional<Indices> match_header(std::string_view line, const TextExportColum
   };
   ix = {find(c.time), find(c.week), find(c.latitude), find(c.longitude), find(c.height), find(c.undulation),
         find(c.roll), find(c.pitch), find(c.heading), find(c.sd_east), find(c.sd_north), find(c.sd_up),
-        find(c.sd_horizontal), find(c.status), ix.max_used};
+        find(c.sd_horizontal), find(c.status), ix.max_used, cells.size()};
   if (!ok) return std::nullopt;
   return ix;
 }
@@ -552,6 +553,24 @@ void describe(const RowContext& ctx, TextDelimiter delimiter, std::size_t header
   track.geodetic = true;
 }
 
+enum class RowKind { kSkip, kData, kCutShortLast };
+
+// Units rows before the data are skipped; a row whose field count is not the header's is an error
+// (a value with spaces in it, such as degrees minutes seconds, would shift every column after it),
+// except the last row cut short by an interrupted write.
+RowKind classify_row(const std::vector<std::string_view>& f, const Line& line, const Line& header, bool data_started,
+                     bool last, const RowContext& ctx) {
+  double t = 0.0;
+  const bool numeric = count_numeric(f, ctx.decimal_comma) >= 3 && parse_number(f.size() > ctx.ix.time ? f[ctx.ix.time] : "", ctx.decimal_comma, t);
+  if (!data_started && !numeric) return RowKind::kSkip;
+  if (f.size() == ctx.ix.header_cells) return RowKind::kData;
+  if (last && f.size() < ctx.ix.header_cells) return RowKind::kCutShortLast;
+  throw InputError(ctx.file, "line " + std::to_string(line.no),
+                   fmt::format("{} fields, but the header (line {}) names {} columns: a missing value, or values with "
+                               "spaces in them (degrees minutes seconds?); export one decimal number per column",
+                               f.size(), header.no, ctx.ix.header_cells));
+}
+
 }  // namespace
 
 std::optional<std::vector<std::string>> text_export_header(std::string_view text) {
@@ -578,22 +597,19 @@ InsTrack parse_text_export(std::string_view text, const std::string& file, const
     }
     ctx.decimal_comma = delimiter == TextDelimiter::kSemicolon;
     const auto f = split_row(lines[i].text, delimiter);
-    if (f.size() <= ix.max_used) {
-      if (track.records.empty() && count_numeric(f, ctx.decimal_comma) < 3) continue;  // units row
-      if (i + 1 == lines.size()) {  // the last row, cut short: an interrupted write
-        ++track.records_skipped;
-        track.warnings.push_back(fmt::format("the last row (line {}) is cut short: skipped", lines[i].no));
-        break;
-      }
-      throw InputError(file, "line " + std::to_string(lines[i].no),
-                       fmt::format("{} fields, the mapping needs {}", f.size(), ix.max_used + 1));
+    const RowKind kind = classify_row(f, lines[i], lines[header], !track.records.empty(), i + 1 == lines.size(), ctx);
+    if (kind == RowKind::kCutShortLast) {
+      ++track.records_skipped;
+      track.warnings.push_back(fmt::format("the last row (line {}) is cut short: skipped", lines[i].no));
     }
-    double t = 0.0;
-    if (track.records.empty() && !parse_number(f[ix.time], ctx.decimal_comma, t)) continue;  // units row
-    push_in_order(track, parse_row(f, lines[i], ctx), file);
+    if (kind == RowKind::kData) push_in_order(track, parse_row(f, lines[i], ctx), file);
   }
   if (track.records.empty()) throw InputError(file, "", "no data rows after the header");
   describe(ctx, delimiter, lines[header].no, track);
+  if (ctx.inferred_week && std::abs(track.records.front().t_s - *lidar_time_hint_unix_s) > 86400.0) {
+    track.warnings.push_back("the export starts more than a day from the LiDAR clock: if its times are seconds of the "
+                             "day rather than of the GPS week, the week inferred is wrong");
+  }
   return track;
 }
 
