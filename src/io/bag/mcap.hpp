@@ -4,6 +4,8 @@
 // Reading an indexed file touches only the footer and the summary section when opening; the
 // message index records after each chunk are read the first time messages() is asked, and a
 // message's chunk is read, CRC-checked and decompressed by read() (recent chunks are cached).
+// read_prefix() decompresses a chunk only as far as the bytes it returns (a cloud's header.stamp
+// costs its first zstd block, not 3 MB), so it cannot check the chunk's CRC; read() does.
 // A file without a summary (a recording cut off) is streamed from its start up to its last whole
 // record, and a warning says where it stops being readable.
 //
