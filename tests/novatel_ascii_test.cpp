@@ -211,7 +211,11 @@ TEST(NovatelAscii, BadFieldsAreInputErrorsNamingTheLine) {
   expect_error_at(one_inspvax(1.0, "49.0") + one_inspvax(2.0, "49.0", "nan"), "line 2", "roll");
   expect_error_at(one_inspvax(1.0, "49.0") + one_inspvax(2.0, "49.0") + one_inspvax(1.5, "49.0"), "line 3",
                   "time goes backwards");
-  expect_error_at(one_inspvax(1.0, "49.0") + one_inspvax(1.0, "49.0"), "line 2", "repeated time");
+  expect_error_at(one_inspvax(1.0, "49.0") + one_inspvax(1.0, "49.1"), "line 2", "repeated time");
+  // The very same solution twice (logged as two record types) is not an error: skipped, counted.
+  const InsTrack twice = parse_novatel_ascii(one_inspvax(1.0, "49.0") + one_inspvax(1.0, "49.0") + one_inspvax(2.0, "49.0"), "twice.log");
+  EXPECT_EQ(twice.records.size(), 2u);
+  EXPECT_EQ(twice.records_skipped, 1u);
 }
 
 TEST(NovatelAscii, NotNavigatingRecordsAreSkippedNotValidated) {

@@ -250,16 +250,27 @@ void attach_inspvax_quality(std::vector<RawRecord>& poses, const std::vector<Raw
   }
 }
 
+// The same solution logged twice (INSPVAA and INSPVASA both requested): identical time and values.
+bool same_solution(const RawRecord& a, const RawRecord& b) {
+  return a.t_s == b.t_s && a.p.lat_deg == b.p.lat_deg && a.p.lon_deg == b.p.lon_deg && a.p.height_m == b.p.height_m &&
+         a.roll_deg == b.roll_deg && a.pitch_deg == b.pitch_deg && a.azimuth_deg == b.azimuth_deg;
+}
+
 void fill_records(const std::vector<RawRecord>& raw, const std::string& file, InsTrack& track) {
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const RawRecord& r = raw[i];
-    if (i > 0 && !(r.t_s > raw[i - 1].t_s)) {
-      throw InputError(file, "line " + std::to_string(r.line),
-                       fmt::format("time {:.3f} (UNIX) does not come after the record at line {} ({:.3f}){}", r.t_s,
-                                   raw[i - 1].line, raw[i - 1].t_s,
-                                   r.t_s == raw[i - 1].t_s ? ": a repeated time (logged twice, or INSPVAA and INSPVASA together?)"
-                                                           : ": time goes backwards"));
+  std::size_t repeated = 0;
+  const RawRecord* previous = nullptr;
+  for (const RawRecord& r : raw) {
+    if (previous && same_solution(r, *previous)) {
+      ++repeated;
+      continue;
     }
+    if (previous && !(r.t_s > previous->t_s)) {
+      throw InputError(file, "line " + std::to_string(r.line),
+                       fmt::format("time {:.3f} (UNIX) does not come after the record at line {} ({:.3f}): {}", r.t_s,
+                                   previous->line, previous->t_s,
+                                   r.t_s == previous->t_s ? "a repeated time with other values" : "time goes backwards"));
+    }
+    previous = &r;
     InsRecord out;
     out.t_s = r.t_s;
     out.lat_deg = r.p.lat_deg;
@@ -270,6 +281,11 @@ void fill_records(const std::vector<RawRecord>& raw, const std::string& file, In
     out.position_stddev_m = r.stddev_enu_m;
     out.location = "line " + std::to_string(r.line);
     track.records.push_back(out);
+  }
+  if (repeated > 0) {
+    track.records_skipped += repeated;
+    track.warnings.push_back(fmt::format("{} records repeat the one before them (the same solution logged twice, e.g. "
+                                         "as INSPVAA and INSPVASA): skipped", repeated));
   }
 }
 
