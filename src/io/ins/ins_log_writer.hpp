@@ -3,7 +3,7 @@
 // KITTI oxts/ folder and a whole KITTI raw drive. Input: the INS poses T_world_ins in a local ENU
 // world tangent at `origin` (what to_world() gives back), UNIX times, and optionally the INS
 // quality per pose. Each writer's output reads back through read_ins_log to the same poses (to
-// micrometres and 1e-8 deg, the printed precision).
+// 0.1 mm and 1e-6 deg or better: the printed precision; SBET is exact).
 #pragma once
 
 #include <filesystem>

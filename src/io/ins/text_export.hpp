@@ -7,7 +7,9 @@
 // and blank lines are skipped. Delimiters are detected per row kind (POSPac writes a comma-separated
 // header over whitespace-separated numbers): tab, ';', ',' or whitespace; with ';' a decimal comma
 // ("12,5") is read as a decimal point. Column names match case-insensitively, trimmed and unquoted;
-// a name that repeats (POSPac's "ELLIPSOID HEIGHT") maps to its first column.
+// a name that repeats (POSPac's "ELLIPSOID HEIGHT") maps to its first column. Every data row has as
+// many fields as the header has columns (a value holding spaces, e.g. degrees minutes seconds,
+// would shift the columns after it: an InputError naming the line).
 //
 // Attitude: roll, pitch and heading are the Euler angles of the named body frame in its own
 // convention (io/ins/attitude.hpp): x-forward-y-right-z-down: R_enu_ins_ned (aerospace ZYX, heading
