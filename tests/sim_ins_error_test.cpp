@@ -92,7 +92,9 @@ TEST(SimInsError, EventsSitWhereTheGroundTruthSaysAndAreReportedAsDocumented) {
     const InsEvent& e = w.ins_events[i];
     EXPECT_GE(e.t_begin_s, t0 + 14.0);
     EXPECT_LE(e.t_end_s, t1 - 14.0);
-    if (i > 0) EXPECT_GE(e.t_begin_s, w.ins_events[i - 1].t_end_s + 5.0) << "events overlap";
+    if (i > 0) {
+      EXPECT_GE(e.t_begin_s, w.ins_events[i - 1].t_end_s + 5.0) << "events overlap";
+    }
     const double mid = 0.5 * (e.t_begin_s + e.t_end_s);
     const InsQuality q_mid = ins_quality(w, mid);
     if (e.kind == InsEventKind::kFloatEpisode) {

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "cli/commands.hpp"
+#include "cli/sim_bag_export.hpp"
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/extrinsic_json.hpp"
@@ -23,6 +24,7 @@
 #include "io/pcd.hpp"
 #include "io/poses.hpp"
 #include "sim/simulate.hpp"
+#include "sim/traffic.hpp"
 
 namespace insalign::cli {
 namespace {
@@ -38,6 +40,7 @@ struct SimulateOptions {
   double ins_drift_m_per_sqrt_s = -1.0;  ///< < 0: the model's default
   std::string extrinsic;
   std::string pcd_encoding = "binary_compressed";
+  std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
   int frames = 0;
   bool overwrite = false;
   bool quiet = false;
@@ -132,6 +135,34 @@ nlohmann::json ins_error_json(const sim::World& w) {
   return j;
 }
 
+const char* mover_kind_name(sim::MoverKind k) {
+  switch (k) {
+    case sim::MoverKind::kCar: return "car";
+    case sim::MoverKind::kVan: return "van";
+    case sim::MoverKind::kCyclist: return "cyclist";
+    case sim::MoverKind::kPedestrian: return "pedestrian";
+  }
+  return "?";
+}
+
+// The movers (written only when traffic was asked for): what, how big, how fast, when.
+nlohmann::json traffic_json(const sim::World& w) {
+  nlohmann::json j;
+  j["vehicles_requested"] = w.config.traffic;
+  j["people_requested"] = w.config.pedestrians;
+  j["movers"] = nlohmann::json::array();
+  for (const sim::Mover& m : w.traffic->movers) {
+    const Vec3 size = 2.0 * m.half_m;
+    j["movers"].push_back({{"kind", mover_kind_name(m.kind)},
+                           {"size_m", {size.x(), size.y(), size.z()}},
+                           {"speed_mps", m.speed_mps},
+                           {"t_begin_s", m.t_start_s},
+                           {"t_end_s", m.t_end_s()},
+                           {"route_length_m", m.route_s_m.back()}});
+  }
+  return j;
+}
+
 nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, std::size_t points) {
   const sim::SimConfig& c = w.config;
   const Iso3& T = w.T_ins_lidar_true;
@@ -173,6 +204,7 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   cfg["pcd_encoding"] = o.pcd_encoding;
   j["config"] = cfg;
   if (has_ins_error_truth(w)) j["ins_error"] = ins_error_json(w);
+  if (w.config.traffic > 0 || w.config.pedestrians > 0) j["traffic"] = traffic_json(w);
   return j;
 }
 
@@ -197,6 +229,18 @@ int run_simulate(SimulateOptions& o) {
     fmt::print(stderr, "error: {}\n", e.what());
     return kExitUsage;
   }
+  if (o.format != "opencalib") {  // a recording instead of the PCD folder
+    SimBagOptions bag;
+    bag.format = *parse_bag_format(o.format);
+    bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
+    bag.ins_message = *parse_ins_message(o.ins_message);
+    bag.ground_truth = ground_truth_json(o, world, 0);
+    const auto print = [](std::size_t d, std::size_t n) { fmt::print(stderr, "\r  frames {}/{}{}", d, n, d == n ? "\n" : ""); };
+    const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
+    fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
+               r.bag.string(), r.ins_frame);
+    return kExitOk;
+  }
   const fs::path out = o.out, lidar_dir = out / "lidar";
   io::ensure_writable_dir(lidar_dir);
   // Stale frames from an earlier run would silently join this dataset.
@@ -219,6 +263,10 @@ int run_simulate(SimulateOptions& o) {
   if (!o.quiet)
     fmt::print(stderr, "simulating {} frames ({}, {}, {}), writing to {}\n", n, world.lidar.name,
                scene_name(o.config.scene), trajectory_name(o.config.trajectory), out.string());
+  const std::size_t movers = world.traffic ? world.traffic->movers.size() : 0;
+  const int wanted = o.config.traffic + o.config.pedestrians;
+  if (!o.quiet && wanted > 0)
+    fmt::print(stderr, "traffic: {} of {} movers found room in the lanes and sidewalks\n", movers, wanted);
   std::vector<double> t_end(n);
   std::vector<std::string> names(n);
   std::atomic<std::size_t> done{0}, points{0};
@@ -342,6 +390,24 @@ Command make_simulate_command() {
         ->check(CLI::Range(0.0, 100.0))
         ->capture_default_str();
     sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+    sub->add_option("--traffic", c.traffic,
+                    "moving cars and vans (15-40 km/h in the lanes beside the path, keeping right, both directions)")
+        ->check(CLI::Range(0, 500))
+        ->capture_default_str();
+    sub->add_option("--pedestrians", c.pedestrians,
+                    "moving people: 30% cyclists (3-6 m/s, bike lanes), the others walking or jogging (1-3.5 m/s) along "
+                    "the sidewalks or crossing")
+        ->check(CLI::Range(0, 500))
+        ->capture_default_str();
+    sub->add_option("--format", o->format, "opencalib (PCD folder and pose files) | ros1 | mcap | db3 (a recording)")
+        ->check(CLI::IsMember({"opencalib", "ros1", "mcap", "db3"}))
+        ->capture_default_str();
+    sub->add_option("--lidar-convention", o->lidar_convention, "recordings: per-point time as hesai | velodyne | ouster | none")
+        ->check(CLI::IsMember({"hesai", "velodyne", "ouster", "none"}))
+        ->capture_default_str();
+    sub->add_option("--ins-message", o->ins_message, "recordings: inspva (INSPVA + INSPVAX) | navsatfix-imu | odometry | tf")
+        ->check(CLI::IsMember({"inspva", "navsatfix-imu", "odometry", "tf"}))
+        ->capture_default_str();
     sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
         ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))
         ->capture_default_str();

@@ -362,6 +362,8 @@ std::vector<P> build_table() {
   t.push_back(field("sim.init_trans_err_m", "translation error of the written initial guess, m", INSALIGN_AT(sim.init_trans_err_m)));
   t.push_back(field("sim.n_fiducials", "surveyed ground points", INSALIGN_AT(sim.n_fiducials)));
   t.push_back(field("sim.fiducial_noise_m", "survey noise sigma per axis, m", INSALIGN_AT(sim.fiducial_noise_m)));
+  t.push_back(field("sim.traffic", "moving cars and vans in the lanes beside the path", INSALIGN_AT(sim.traffic)));
+  t.push_back(field("sim.pedestrians", "moving people (cyclists, walkers, joggers) on bike lanes and sidewalks", INSALIGN_AT(sim.pedestrians)));
   return t;
 }
 

@@ -14,6 +14,7 @@
 #include "sim/random.hpp"
 #include "sim/scene.hpp"
 #include "sim/trajectory.hpp"
+#include "sim/traffic.hpp"
 
 namespace insalign::sim {
 namespace {
@@ -54,6 +55,8 @@ void validate(const SimConfig& c) {
     fail("a recorded trajectory needs at least 2 poses");
   if (c.T_ins_lidar && !c.T_ins_lidar->matrix().allFinite()) fail("given extrinsic is not finite");
   validate_ins_error(c.ins_error);
+  if (c.traffic < 0 || c.traffic > 500 || c.pedestrians < 0 || c.pedestrians > 500)
+    fail("traffic and pedestrian counts must be in [0, 500]");
 }
 
 // Random roof mount, physically placed: INS near the rear axle, LiDAR on the roof.
@@ -97,6 +100,28 @@ std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, co
     }
   }
   return out;
+}
+
+// Movers around the driven path, avoiding the ego's body (x from -1.1 to 3.6 m of the INS, the
+// INS near the rear axle) over the whole drive.
+Traffic build_traffic(const World& w, const std::vector<Vec2>& path_xy) {
+  TrafficRequest request;
+  request.vehicles = w.config.traffic;
+  request.people = w.config.pedestrians;
+  request.path_xy = path_xy;
+  request.t_begin_s = kEpochS;
+  request.t_end_s = w.frame_times_s.back() + std::abs(w.config.time_offset_s);
+  request.seed = hash_counters(w.config.seed, 0x7AFF1C);
+  EgoFootprint ego;
+  const Iso3 T_ins_vehicle = w.T_vehicle_ins.inverse();
+  ego.pose = [&w, T_ins_vehicle](double t_s) {
+    const double t = std::clamp(t_s, w.poses_true.t_begin(), w.poses_true.t_end());
+    const Iso3 T_world_vehicle = w.poses_true.T_world_ins(t) * T_ins_vehicle;
+    const Vec3 c = T_world_vehicle * Vec3(1.25, 0.0, 0.0);
+    const Vec3 x = T_world_vehicle.linear().col(0);
+    return MoverPose{c.head<2>(), std::atan2(x.y(), x.x())};
+  };
+  return make_traffic(request, *w.scene, ego);
 }
 
 // The INS error of the configured model and its events, each from its own random stream.
@@ -173,6 +198,16 @@ World build_world(const SimConfig& config) {
                              : static_cast<std::size_t>(std::floor(trajectory.duration_s() * config.frame_rate_hz));
   n_frames = std::max<std::size_t>(1, n_frames);
   for (std::size_t k = 0; k < n_frames; ++k) w.frame_times_s.push_back(kEpochS + (k + 1) * period_s);
+  SimLidar primary;
+  primary.model = w.lidar;
+  primary.T_ins_lidar_true = w.T_ins_lidar_true;
+  primary.T_ins_lidar_init = w.T_ins_lidar_init;
+  primary.time_offset_s = config.time_offset_s;
+  primary.frame_rate_hz = config.frame_rate_hz;
+  primary.start_azimuth_rad = kPi;  // starting behind the sensor
+  primary.noise_seed = config.seed;
+  primary.frame_times_s = w.frame_times_s;
+  w.lidars = {primary};
 
   // Truth on the INS clock, dense, covering every sweep through the offset with a margin.
   const double pad_s = 1.0 + std::abs(config.time_offset_s);
@@ -188,92 +223,14 @@ World build_world(const SimConfig& config) {
   w.poses_true = PoseStream(std::move(truth));
 
   w.scene = std::make_shared<const Scene>(make_scene(config.scene, config.seed, trajectory.loop_xy(), trajectory.ground()));
+  w.T_vehicle_ins = T_vehicle_ins;
+  w.traffic = std::make_shared<const Traffic>(build_traffic(w, trajectory.loop_xy()));
 
   Rng fid_rng(hash_counters(config.seed, 0xF1D));
   w.fiducials = place_fiducials(config, *w.scene, trajectory.loop_xy(), fid_rng);
 
   build_ins_error(w);
   return w;
-}
-
-Sweep render_sweep(const World& world, std::size_t k) {
-  const SimConfig& c = world.config;
-  const Scene& scene = *world.scene;
-  const std::size_t n_cols = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(360.0 / c.azimuth_step_deg)));
-  const std::size_t n_beams = world.lidar.elevation_deg.size();
-  const double period_s = 1.0 / c.frame_rate_hz;
-  const double col_dt_s = period_s / static_cast<double>(n_cols);
-  const double step_rad = 2 * kPi / static_cast<double>(n_cols);
-  const double t_end_nominal = world.frame_times_s.at(k);
-  std::vector<double> cos_el(n_beams), sin_el(n_beams);
-  for (std::size_t b = 0; b < n_beams; ++b) {
-    cos_el[b] = std::cos(world.lidar.elevation_deg[b] * kRadPerDeg);
-    sin_el[b] = std::sin(world.lidar.elevation_deg[b] * kRadPerDeg);
-  }
-  // One slot per ray, compacted afterwards in firing order: deterministic whatever the threads do.
-  std::vector<Vec3f> slot_p(n_cols * n_beams);
-  std::vector<float> slot_i(n_cols * n_beams);
-  std::vector<std::uint8_t> slot_ok(n_cols * n_beams, 0);
-  const double max_cast_m = c.max_range_m + 5.0 * c.range_noise_m + 0.1;
-
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cols, 32), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t j = r.begin(); j < r.end(); ++j) {
-      const double t_lidar = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
-      // The sensor's TRUE pose at this column's instant (INS clock = LiDAR clock + offset).
-      const Iso3 T_world_lidar = world.poses_true.T_world_ins(t_lidar + c.time_offset_s) * world.T_ins_lidar_true;
-      const Mat3 R = T_world_lidar.linear();
-      const Vec3 origin = T_world_lidar.translation();
-      // Clockwise spin seen from above, starting behind the sensor.
-      const double az = kPi - static_cast<double>(j) * step_rad;
-      const double ca = std::cos(az), sa = std::sin(az);
-      for (std::size_t b = 0; b < n_beams; ++b) {
-        const std::uint64_t key = hash_counters(c.seed, k, j, b);
-        if (c.dropout_prob > 0.0 && unit_from_bits(splitmix64(key ^ 1)) < c.dropout_prob) continue;
-        const Vec3 d_lidar(cos_el[b] * ca, cos_el[b] * sa, sin_el[b]);
-        const Vec3 d_world = R * d_lidar;
-        const auto hit = scene.cast(origin, d_world, max_cast_m);
-        if (!hit) continue;
-        const double range = hit->range_m + c.range_noise_m * normal_from_bits(splitmix64(key ^ 2), splitmix64(key ^ 3));
-        if (range <= 0.3 || range > c.max_range_m) continue;
-        const double cos_inc = std::abs(hit->normal.dot(d_world));
-        const double intensity = 255.0 * hit->reflectivity * (0.25 + 0.75 * cos_inc) +
-                                 2.0 * normal_from_bits(splitmix64(key ^ 4), splitmix64(key ^ 5));
-        const std::size_t s = j * n_beams + b;
-        slot_p[s] = (d_lidar * range).cast<float>();
-        slot_i[s] = static_cast<float>(std::clamp(intensity, 0.0, 255.0));
-        slot_ok[s] = 1;
-      }
-    }
-  });
-
-  Sweep sweep;
-  std::size_t n = 0;
-  std::size_t last_col = n_cols - 1;
-  bool any = false;
-  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
-    if (!slot_ok[s]) continue;
-    ++n;
-    last_col = s / n_beams;
-    any = true;
-  }
-  // Frame time = the latest point time (normally the last column).
-  const double t_end = t_end_nominal - static_cast<double>(n_cols - 1 - (any ? last_col : n_cols - 1)) * col_dt_s;
-  sweep.t_end_s = t_end;
-  sweep.name = frame_name(t_end);
-  sweep.p_lidar.reserve(n);
-  sweep.dt_s.reserve(n);
-  sweep.intensity.reserve(n);
-  sweep.ring.reserve(n);
-  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
-    if (!slot_ok[s]) continue;
-    const std::size_t j = s / n_beams;
-    const double t = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
-    sweep.p_lidar.push_back(slot_p[s]);
-    sweep.dt_s.push_back(static_cast<float>(t - t_end));
-    sweep.intensity.push_back(slot_i[s]);
-    sweep.ring.push_back(static_cast<std::uint16_t>(s % n_beams));
-  }
-  return sweep;
 }
 
 InsSlowError ins_slow_error(const World& world, double t_ins_s) {
@@ -360,8 +317,9 @@ SimDataset simulate(const SimConfig& config, const std::function<void(std::size_
   out.sweeps.resize(n);
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
+  out.hit_mover.resize(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-    out.sweeps[k] = render_sweep(world, k);
+    out.sweeps[k] = render_sweep(world, k, &out.hit_mover[k]);
     const std::size_t d = ++done;
     if (progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);

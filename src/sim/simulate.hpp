@@ -55,6 +55,12 @@ struct SimConfig {
   double init_trans_err_m = 0.5;    ///< translation error of the initial guess (random direction)
   int n_fiducials = 6;              ///< surveyed ground points
   double fiducial_noise_m = 0.005;  ///< survey noise sigma per axis
+  /// Moving vehicles (cars and vans, 15-40 km/h in the lanes 2.2 m either side of the driven
+  /// path, keeping right, both directions, straight on and through the turns) and people
+  /// (30 % cyclists at 3-6 m/s in the bike lanes at 3.8 m, the others walking at 1-1.8 m/s, some
+  /// jogging, along the sidewalks at 5.3 m or crossing). traffic.hpp.
+  int traffic = 0;
+  int pedestrians = 0;
 };
 
 /// A spinning LiDAR: beam elevations (ring r = index r) and its name.
@@ -66,11 +72,27 @@ struct LidarModel {
 LidarModel lidar_model(const std::string& name);
 std::vector<std::string> lidar_model_names();
 
-struct Scene;  // primitives and their BVH (scene.hpp)
+struct Scene;    // primitives and their BVH (scene.hpp)
+struct Traffic;  // moving vehicles and people (traffic.hpp)
+
+/// One simulated LiDAR of the vehicle: model, true mount, its own clock and spin.
+struct SimLidar {
+  std::string name = "lidar";       ///< a rig LiDAR's folder name
+  LidarModel model;
+  Iso3 T_ins_lidar_true = Iso3::Identity();
+  Iso3 T_ins_lidar_init = Iso3::Identity();
+  double time_offset_s = 0.0;       ///< its clock: t_ins = t_lidar + offset
+  double frame_rate_hz = 10.0;
+  double start_azimuth_rad = 0.0;   ///< spinning: azimuth of a sweep's first column (clockwise spin)
+  std::uint64_t noise_seed = 1;     ///< per-ray noise and dropout
+  std::vector<double> frame_times_s;  ///< nominal frame (sweep end) times, its clock
+};
 
 /// Everything that does not change from frame to frame. Built once; render_sweep is thread-safe.
+/// `lidar`, `T_ins_lidar_true`, `T_ins_lidar_init` and `frame_times_s` are those of lidars[0].
 struct World {
   SimConfig config;
+  std::vector<SimLidar> lidars;      ///< at least one
   LidarModel lidar;
   std::shared_ptr<const Scene> scene;
   PoseStream poses_true;             ///< true T_world_ins, INS clock, dense (200 Hz)
@@ -82,15 +104,21 @@ struct World {
   InsDrift drift;                    ///< kRtkFixed: the bounded position error (empty otherwise)
   InsWalk walk;                      ///< kDrift: the random walk (empty otherwise)
   std::vector<InsEvent> ins_events;  ///< ground truth of the INS events, time order
+  Iso3 T_vehicle_ins = Iso3::Identity();   ///< INS axes in the vehicle frame (x forward, z up)
+  std::shared_ptr<const Traffic> traffic;  ///< movers (none unless config.traffic/pedestrians)
   std::size_t frame_count() const { return frame_times_s.size(); }
 };
 
 /// Builds scene, trajectory, extrinsic and fiducials. Throws std::invalid_argument on a bad config.
 World build_world(const SimConfig& config);
 
-/// Frame k: one revolution ending at frame_times_s[k], each column measured from the sensor's true
-/// pose at its own instant; t_end_s = the latest point time; name = frame_name(t_end_s).
-Sweep render_sweep(const World& world, std::size_t k);
+/// Frame k of lidars[0]: one revolution ending at frame_times_s[k], each column measured from the
+/// sensor's true pose, and the movers where they are, at its own instant; t_end_s = the latest
+/// point time; name = frame_name(t_end_s). hit_mover (optional): per point, 1 if it lies on a mover.
+Sweep render_sweep(const World& world, std::size_t k, std::vector<std::uint8_t>* hit_mover = nullptr);
+/// The same for any LiDAR of the world.
+Sweep render_lidar_sweep(const World& world, std::size_t lidar, std::size_t k,
+                         std::vector<std::uint8_t>* hit_mover = nullptr);
 
 /// The INS's true slow error at an INS time (model plus events, no white noise): reported
 /// position = true + position_m (+ white); reported rotation = Rz Ry Rx(rpy_world_rad) * true.
@@ -120,6 +148,7 @@ std::string frame_name(double t_s);
 
 struct SimDataset {                 ///< everything in memory (tests); the CLI streams frames instead
   std::vector<Sweep> sweeps;        ///< raw, motion-distorted; t_end_s = LiDAR clock
+  std::vector<std::vector<std::uint8_t>> hit_mover;  ///< per sweep and point: 1 = on a mover
   PoseStream poses;                 ///< reported (noisy) T_world_ins, one per frame, stamped t_end_s (INS clock)
   PoseStream poses_true;            ///< true T_world_ins (dense, for tests)
   Iso3 T_ins_lidar_true = Iso3::Identity(), T_ins_lidar_init = Iso3::Identity();
