@@ -474,8 +474,7 @@ class McapReader final : public BagReader {
   const std::vector<Topic>& topics() const override { return topics_; }
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
-  // Overrides BagReader::read_prefix (not marked so until that addition to bag_reader.hpp lands).
-  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const;  // NOLINT
+  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
   std::string describe() const override;
   const std::vector<std::string>& warnings() const override { return warnings_; }
   std::int64_t start_time_ns() const override { return start_ns_; }
