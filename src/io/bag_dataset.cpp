@@ -184,19 +184,28 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
   rep.warnings = reader->warnings();
 
   // Topics, then the INS (small messages), then the clouds' stamps and a few decoded clouds.
+  // Topics; a few decoded clouds per LiDAR; then one pass in record order over the INS messages
+  // and the clouds' stamps (a chunk holding both is decompressed once).
   const std::vector<std::uint32_t> lidar_topics = choose_lidar_topics(*reader, options.lidar_topics);
-  const InsSourceTopics ins_topics = choose_ins_source(*reader, options.ins_topic);
-  const InsSource ins = read_ins_source(*reader, ins_topics, {options.world_frame, options.ins_frame, options.ins_time_shift_s});
+  InsSourceReader ins_reader(*reader, choose_ins_source(*reader, options.ins_topic),
+                             {options.world_frame, options.ins_frame, options.ins_time_shift_s});
+  std::vector<std::unique_ptr<LidarTopicIndexer>> indexers;
+  std::vector<TopicPass> passes = ins_reader.passes();
+  for (std::uint32_t topic : lidar_topics) {
+    indexers.push_back(std::make_unique<LidarTopicIndexer>(*reader, topic, *out.counters));
+    passes.push_back(indexers.back()->pass());
+  }
+  read_in_record_order(*reader, passes);
+  const InsSource ins = ins_reader.finish();
   rep.warnings.insert(rep.warnings.end(), ins.track.warnings.begin(), ins.track.warnings.end());
   const WorldTrack world = to_world(ins.track);
   out.enu = world.enu;
   rep.ins = ins_report(ins, world);
   Vec3 origin = Vec3::Zero();
   const PoseStream poses = recentred(world.poses, origin);
-
   std::vector<LidarFrames> lidars;
-  for (std::uint32_t topic : lidar_topics) {
-    lidars.push_back(index_lidar_topic(*reader, topic, *out.counters));
+  for (const auto& indexer : indexers) {
+    lidars.push_back(indexer->finish());
     rep.warnings.insert(rep.warnings.end(), lidars.back().warnings.begin(), lidars.back().warnings.end());
   }
   rep.clock = analyse_clocks(lidars, ins, poses);
