@@ -8,7 +8,6 @@
 #include <cctype>
 #include <cstdint>
 #include <fstream>
-#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
