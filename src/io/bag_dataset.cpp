@@ -10,6 +10,8 @@
 #include "io/extrinsic_json.hpp"
 #include "io/fiducials.hpp"
 #include "io/read_file.hpp"
+#include "io/bag_scan.hpp"
+#include "io/bag_topics.hpp"
 #include "io/ins/ins_track.hpp"
 
 namespace insalign::io {
@@ -54,6 +56,7 @@ InsReport ins_report(const InsSource& src, const WorldTrack& world) {
   }
   if (world.enu) r.enu_origin = world.enu->origin();
   r.not_used = src.not_used;
+  r.stamp_minus_record_s = src.stamp_minus_record_s;
   return r;
 }
 
@@ -90,7 +93,8 @@ std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
   return out + ", not a whole number of seconds";
 }
 
-ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const InsSource& ins, const PoseStream& poses) {
+ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const BagTrajectory& ins) {
+  const PoseStream& poses = ins.poses;
   ClockReport c;
   c.ins_begin_s = poses.t_begin(), c.ins_end_s = poses.t_end();
   c.lidar_begin_s = lidars.front().frames.front().t_end_s, c.lidar_end_s = lidars.front().frames.back().t_end_s;
@@ -104,7 +108,7 @@ ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const InsSour
     if (std::isfinite(l.report.stamp_minus_record_s)) lags.push_back(l.report.stamp_minus_record_s);
   }
   c.frames_inside_fraction = static_cast<double>(inside) / static_cast<double>(std::max<std::size_t>(1, total));
-  if (!lags.empty()) c.stamp_gap_s = ins.stamp_minus_record_s - median_of(lags);
+  if (!lags.empty()) c.stamp_gap_s = ins.report.stamp_minus_record_s - median_of(lags);
   const bool from_records = std::isfinite(c.stamp_gap_s);
   const double gap_s = from_records ? c.stamp_gap_s : c.ins_begin_s - c.lidar_begin_s;
   c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !(std::abs(c.stamp_gap_s) > kMaxStampGap_s);
@@ -140,12 +144,22 @@ std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, s
   return used;
 }
 
-// Poses recentred on the first position (as load_dataset does: UTM is large).
-PoseStream recentred(std::vector<StampedPose> poses, Vec3& origin) {
-  origin = poses.front().T_world_ins.translation();
-  for (StampedPose& p : poses) p.T_world_ins.translation() -= origin;
-  return PoseStream(std::move(poses));
+// The track in the world frame, recentred on the first position (as load_dataset does: UTM is large).
+BagTrajectory trajectory_of(const InsSource& ins) {
+  const WorldTrack world = to_world(ins.track);
+  BagTrajectory t;
+  t.enu = world.enu;
+  t.report = ins_report(ins, world);
+  t.warnings = ins.track.warnings;
+  t.ins_quality = stated_quality(world.quality);
+  std::vector<StampedPose> poses = world.poses;
+  t.world_origin_m = poses.front().T_world_ins.translation();
+  for (StampedPose& p : poses) p.T_world_ins.translation() -= t.world_origin_m;
+  t.poses = PoseStream(std::move(poses));
+  return t;
 }
+
+InsReadOptions ins_read_options(const BagOptions& o) { return {o.world_frame, o.ins_frame, o.ins_time_shift_s}; }
 
 }  // namespace
 
@@ -183,12 +197,10 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
   rep.container = reader->describe();
   rep.warnings = reader->warnings();
 
-  // Topics, then the INS (small messages), then the clouds' stamps and a few decoded clouds.
   // Topics; a few decoded clouds per LiDAR; then one pass in record order over the INS messages
   // and the clouds' stamps (a chunk holding both is decompressed once).
   const std::vector<std::uint32_t> lidar_topics = choose_lidar_topics(*reader, options.lidar_topics);
-  InsSourceReader ins_reader(*reader, choose_ins_source(*reader, options.ins_topic),
-                             {options.world_frame, options.ins_frame, options.ins_time_shift_s});
+  InsSourceReader ins_reader(*reader, choose_ins_source(*reader, options.ins_topic), ins_read_options(options));
   std::vector<std::unique_ptr<LidarTopicIndexer>> indexers;
   std::vector<TopicPass> passes = ins_reader.passes();
   for (std::uint32_t topic : lidar_topics) {
@@ -196,33 +208,29 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
     passes.push_back(indexers.back()->pass());
   }
   read_in_record_order(*reader, passes);
-  const InsSource ins = ins_reader.finish();
-  rep.warnings.insert(rep.warnings.end(), ins.track.warnings.begin(), ins.track.warnings.end());
-  const WorldTrack world = to_world(ins.track);
-  out.enu = world.enu;
-  rep.ins = ins_report(ins, world);
-  Vec3 origin = Vec3::Zero();
-  const PoseStream poses = recentred(world.poses, origin);
+  const BagTrajectory ins = trajectory_of(ins_reader.finish());
+  rep.warnings.insert(rep.warnings.end(), ins.warnings.begin(), ins.warnings.end());
+  out.enu = ins.enu;
+  rep.ins = ins.report;
   std::vector<LidarFrames> lidars;
   for (const auto& indexer : indexers) {
     lidars.push_back(indexer->finish());
     rep.warnings.insert(rep.warnings.end(), lidars.back().warnings.begin(), lidars.back().warnings.end());
   }
-  rep.clock = analyse_clocks(lidars, ins, poses);
+  rep.clock = analyse_clocks(lidars, ins);
   check_clocks(rep.clock, path);
 
   std::vector<Fiducial> fiducials;
-  if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, world.enu, origin);
+  if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, ins.enu, ins.world_origin_m);
   std::optional<Iso3> init;
   if (options.init) init = read_opencalib_extrinsic(*options.init);
-  const std::vector<InsQuality> quality = stated_quality(world.quality);
   for (LidarFrames& l : lidars) {
-    const std::vector<CloudFrame> used = frames_inside(l, poses, rep.warnings);
+    const std::vector<CloudFrame> used = frames_inside(l, ins.poses, rep.warnings);
     Dataset d;
     d.frames = make_frame_source(reader, l.topic, used, out.counters);
-    d.poses = poses;
-    d.ins_quality = quality;
-    d.world_origin_m = origin;
+    d.poses = ins.poses;
+    d.ins_quality = ins.ins_quality;
+    d.world_origin_m = ins.world_origin_m;
     d.fiducials = fiducials;
     d.T_ins_lidar_init = init;
     out.lidar_names.push_back(l.report.name);
@@ -230,6 +238,16 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
     rep.lidars.push_back(l.report);
   }
   return out;
+}
+
+BagTrajectory load_bag_trajectory(const BagOptions& options) {
+  return load_bag_trajectory(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path)), options);
+}
+
+BagTrajectory load_bag_trajectory(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options) {
+  BagTrajectory t = trajectory_of(read_ins_source(*reader, choose_ins_source(*reader, options.ins_topic), ins_read_options(options)));
+  t.warnings.insert(t.warnings.begin(), reader->warnings().begin(), reader->warnings().end());
+  return t;
 }
 
 LoadReport to_load_report(const BagReport& report, std::size_t lidar) {
@@ -371,6 +389,39 @@ std::vector<Fiducial> read_bag_fiducials(const std::filesystem::path& path, cons
   }
   for (Fiducial& f : out) f.p_world -= world_origin_m;
   return out;
+}
+
+std::string describe_recording(const bag::BagReader& reader) {
+  std::string s = fmt::format("{}: {}\n", reader.path().string(), reader.describe());
+  const double t0 = static_cast<double>(reader.start_time_ns()) * 1e-9, t1 = static_cast<double>(reader.end_time_ns()) * 1e-9;
+  s += fmt::format("record times {:.3f} .. {:.3f} s ({:.3f} s)\n", t0, t1, t1 - t0);
+  for (const bag::Topic& t : reader.topics()) {
+    const std::string type = bag::normalized_type(t.type);
+    const auto kind = ins_source_kind(t.type);
+    const std::string role = type == "sensor_msgs/PointCloud2" ? "LiDAR"
+                             : kind                           ? std::string("INS: ") + ins_source_name(*kind)
+                                                              : "not read";
+    s += fmt::format("  {}  {}  {} msgs  ({})\n", t.name, t.type, t.message_count, role);
+  }
+  for (const std::string& w : reader.warnings()) s += "warning: " + w + "\n";
+  return s;
+}
+
+std::string describe_trajectory(const BagTrajectory& trajectory) {
+  std::string s;
+  describe_ins(s, trajectory.report);
+  if (!trajectory.poses.empty()) {
+    const auto describe_pose = [&](const char* which, const StampedPose& p) {
+      const Vec3 t = p.T_world_ins.translation() + trajectory.world_origin_m;
+      const Eigen::Quaterniond q(p.T_world_ins.linear());
+      return fmt::format("  {} pose at {:.6f} s: position {:.4f} {:.4f} {:.4f} m, orientation (x y z w) {:.7f} {:.7f} {:.7f} {:.7f}\n",
+                         which, p.t_s, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    };
+    s += describe_pose("first", trajectory.poses.poses().front());
+    s += describe_pose("last", trajectory.poses.poses().back());
+  }
+  for (const std::string& w : trajectory.warnings) s += "warning: " + w + "\n";
+  return s;
 }
 
 std::string describe_bag(const BagReport& report) {
