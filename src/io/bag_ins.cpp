@@ -6,6 +6,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <stdexcept>
 
 #include "core/errors.hpp"
 #include "io/bag/message_definitions.hpp"
@@ -186,10 +187,29 @@ std::vector<Decoded> tf_records(const BagReader& r, const std::vector<TFMessage>
   return d;
 }
 
+// A record no frame can use: a value not finite, a latitude or longitude out of range.
+bool usable(const InsRecord& r, bool geodetic) {
+  if (!std::isfinite(r.t_s) || !r.R_world_ins.allFinite()) return false;
+  if (!geodetic) return r.p_world_m.allFinite();
+  try {
+    check_geodetic({r.lat_deg, r.lon_deg, r.height_m});
+  } catch (const std::invalid_argument&) {
+    return false;
+  }
+  return true;
+}
+
 // Time shift, time order, duplicates and records the source marks invalid; status counts.
 void finish_records(std::vector<Decoded>& d, const InsReadOptions& options, InsSource& out) {
   for (Decoded& x : d) x.rec.t_s += options.time_shift_s;
-  std::erase_if(d, [](const Decoded& x) { return !std::isfinite(x.rec.t_s); });
+  const std::size_t before = d.size();
+  std::erase_if(d, [&](const Decoded& x) { return !usable(x.rec, out.track.geodetic); });
+  out.records_unusable = before - d.size();
+  if (out.records_unusable > 0) {
+    out.track.warnings.push_back(fmt::format("dropped {} INS records holding values that are not finite or a latitude or "
+                                             "longitude out of range",
+                                             out.records_unusable));
+  }
   if (!std::is_sorted(d.begin(), d.end(), [](const Decoded& a, const Decoded& b) { return a.rec.t_s < b.rec.t_s; })) {
     out.track.warnings.push_back("INS stamps are not in record order; sorted by header.stamp");
     std::stable_sort(d.begin(), d.end(), [](const Decoded& a, const Decoded& b) { return a.rec.t_s < b.rec.t_s; });
@@ -217,7 +237,7 @@ void finish_records(std::vector<Decoded>& d, const InsReadOptions& options, InsS
     out.track.warnings.push_back(fmt::format("dropped {} INS records with the stamp of the one before", out.records_duplicate));
   }
   out.track.records = std::move(kept);
-  out.track.records_skipped = out.records_invalid + out.records_duplicate + out.records_unpaired;
+  out.track.records_skipped = out.records_invalid + out.records_duplicate + out.records_unpaired + out.records_unusable;
 }
 
 void describe_frames(InsSource& out, const std::vector<Decoded>& d) {

@@ -40,6 +40,7 @@ struct InsSource {
   std::size_t records_invalid = 0;     ///< dropped: the source marks them unusable
   std::size_t records_duplicate = 0;   ///< dropped: same stamp as the record before
   std::size_t records_unpaired = 0;    ///< NavSatFix + Imu: fixes with no Imu orientation near them
+  std::size_t records_unusable = 0;    ///< dropped: values not finite, latitude or longitude out of range
   /// Median of header.stamp - record time over the messages (s): compared with the LiDAR's to
   /// tell a clock difference from a late start.
   double stamp_minus_record_s = std::numeric_limits<double>::quiet_NaN();
