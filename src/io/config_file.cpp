@@ -364,6 +364,9 @@ std::vector<P> build_table() {
   t.push_back(field("sim.fiducial_noise_m", "survey noise sigma per axis, m", INSALIGN_AT(sim.fiducial_noise_m)));
   t.push_back(field("sim.traffic", "moving cars and vans in the lanes beside the path", INSALIGN_AT(sim.traffic)));
   t.push_back(field("sim.pedestrians", "moving people (cyclists, walkers, joggers) on bike lanes and sidewalks", INSALIGN_AT(sim.pedestrians)));
+  t.push_back(field("sim.rig", "several LiDARs: name:model[@mount][/rate_hz],... (empty: the single lidar_model)", INSALIGN_AT(sim.rig)));
+  t.push_back(field("sim.rig_clock_spread_s", "rig: each LiDAR's clock offset is time_offset_s plus a uniform draw within +-this, s",
+                    INSALIGN_AT(sim.rig_clock_spread_s)));
   return t;
 }
 
