@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "cli/commands.hpp"
+#include "cli/progress.hpp"
 #include "cli/sim_bag_export.hpp"
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
@@ -270,7 +271,7 @@ struct Rendered {  // per LiDAR
 
 // Every frame of every LiDAR in parallel (each also casts its rays in parallel), written as it
 // is rendered: one sweep per worker in memory.
-Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::PcdEncoding encoding, bool quiet) {
+Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::PcdEncoding encoding, ProgressBar& bar) {
   Rendered r;
   std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (lidar, frame)
   for (std::size_t i = 0; i < w.lidars.size(); ++i) {
@@ -282,9 +283,6 @@ Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::
   std::vector<std::atomic<std::size_t>> points(w.lidars.size());
   const std::size_t n = jobs.size();
   std::atomic<std::size_t> done{0};
-  std::mutex print_mutex;
-  const auto start = std::chrono::steady_clock::now();
-  auto last_print = start - std::chrono::seconds(10);
   // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
   // another that is ray casting. TBB caps its workers at the core count unless told otherwise.
   const int threads = static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency()));
@@ -298,18 +296,10 @@ Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::
       r.t_end_s[i][k] = sweep.t_end_s;
       r.names[i][k] = sweep.name;
       points[i] += sweep.size();
-      const std::size_t d = ++done;
-      if (quiet) return;
-      std::lock_guard<std::mutex> lock(print_mutex);
-      const auto now = std::chrono::steady_clock::now();
-      if (d < n && now - last_print < std::chrono::milliseconds(500)) return;
-      last_print = now;
-      const double elapsed = std::chrono::duration<double>(now - start).count();
-      const double eta = d > 0 ? elapsed * static_cast<double>(n - d) / static_cast<double>(d) : 0.0;
-      fmt::print(stderr, "\r  frames {}/{}  {:.1f} s elapsed  ETA {:.0f} s   ", d, n, elapsed, eta);
-      if (d == n) fmt::print(stderr, "\n");
+      bar.update("frames", static_cast<double>(++done) / static_cast<double>(n));
     });
   });
+  bar.finish();
   for (const auto& p : points) r.points.push_back(p.load());
   return r;
 }
@@ -390,8 +380,10 @@ int run_simulate(SimulateOptions& o) {
     bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
     bag.ins_message = *parse_ins_message(o.ins_message);
     bag.ground_truth = ground_truth_json(o, world, 0);
-    const auto print = [](std::size_t d, std::size_t n) { fmt::print(stderr, "\r  frames {}/{}{}", d, n, d == n ? "\n" : ""); };
+    ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+    const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
     const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
+    bar.finish();
     fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
                r.bag.string(), r.ins_frame);
     return kExitOk;
@@ -404,7 +396,9 @@ int run_simulate(SimulateOptions& o) {
                                                                 : io::PcdEncoding::kBinaryCompressed;
   if (!o.quiet) print_plan(o, world);
   const auto start = std::chrono::steady_clock::now();
-  const Rendered rendered = render_all(world, dirs, encoding, o.quiet);
+  // A bar on a terminal; in a log one line per step and a progress line at most every 5 s.
+  ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  const Rendered rendered = render_all(world, dirs, encoding, bar);
   write_metadata(o, world, out, rendered);
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   print_summary(o, world, out, rendered, elapsed);
