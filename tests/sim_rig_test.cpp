@@ -82,6 +82,14 @@ TEST(SimRig, EveryLidarSeesTheSceneFromItsMountAndNeverItsOwnCar) {
                        std::abs(p.y()) < EgoBody::kHalfWidthM - 0.05 && p.z() - ground_z < EgoBody::kTopM - 0.05 &&
                        p.z() - ground_z > EgoBody::kBottomM + 0.05;
               }), 0.0) << l.name;
+    if (l.model.pattern == ScanPattern::kSpinning) {  // within its beams' elevations
+      const auto [lo, hi] = std::minmax_element(l.model.elevation_deg.begin(), l.model.elevation_deg.end());
+      for (const Vec3f& p : render_lidar_sweep(w, i, 10).p_lidar) {
+        const double el = std::asin(p.z() / p.norm()) * kDegPerRad;
+        ASSERT_GE(el, *lo - 0.01) << l.name;
+        ASSERT_LE(el, *hi + 0.01) << l.name;
+      }
+    }
     const double height = (w.T_vehicle_ins * l.T_ins_lidar_true).translation().z() - ground_z;
     const auto on_ground = [&](const Vec3& p) { return std::abs(p.z() - ground_z) < 0.25; };
     if (l.name == "top") {

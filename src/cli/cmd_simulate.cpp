@@ -465,7 +465,8 @@ Command make_simulate_command() {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
-                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float")
+                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float with "
+                    "stddev 0.1-0.3 m (events keep 15 s from the drive's ends and 5 s apart)")
         ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
@@ -473,7 +474,7 @@ Command make_simulate_command() {
         ->capture_default_str();
     sub->add_option("--ins-outages", c.ins_error.outages,
                     "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
-                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only")
+                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only with a growing stddev")
         ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();

@@ -175,7 +175,7 @@ Traffic build_traffic(const World& w, const std::vector<Vec2>& path_xy) {
   request.people = w.config.pedestrians;
   request.path_xy = path_xy;
   request.t_begin_s = kEpochS;
-  request.t_end_s = w.frame_times_s.back() + std::abs(w.config.time_offset_s);
+  request.t_end_s = kEpochS;  // the last sweep of any LiDAR, on the INS clock
   for (const SimLidar& l : w.lidars) request.t_end_s = std::max(request.t_end_s, l.frame_times_s.back() + std::abs(l.time_offset_s));
   request.seed = hash_counters(w.config.seed, 0x7AFF1C);
   EgoFootprint ego;
