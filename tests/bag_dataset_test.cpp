@@ -523,6 +523,50 @@ TEST(BagDataset, ClockGapsAreInputErrorsWithBothRanges) {
   }
 }
 
+// When the record times are copies of the stamps (converted data sets), only the ranges can tell.
+TEST(BagDataset, ClockGapFromTheRangesWhenRecordTimesAreTheStamps) {
+  const fs::path dir = fresh_dir("clock_copied");
+  BagBuilder b;
+  const std::uint32_t points = b.topic("/points", "sensor_msgs/PointCloud2"), odom = b.topic("/odom", "nav_msgs/Odometry");
+  for (int k = 0; k < 30; ++k) {
+    const double t_end = kT0 + 0.1 * (k + 1);  // Velodyne: the stamp is the sweep end, as the record time
+    b.add(points, t_end, encode_message(make_pointcloud2(small_sweep(t_end), DriverLayout::kVelodyne, "lidar"), b.enc()));
+  }
+  for (int i = 0; i <= 165; ++i) {
+    Odometry m;
+    m.header = header_at(kFirstInsS + 0.02 * i + 18.0, "odom");
+    b.add(odom, m.header.stamp.seconds(), encode_message(m, b.enc()));
+  }
+  const fs::path bag = b.write(dir / "c.mcap");
+  try {
+    load_bag(options_for(bag));
+    ADD_FAILURE() << "no error";
+  } catch (const ClockGapError& e) {
+    EXPECT_FALSE(std::isfinite(e.clock().stamp_gap_s));
+    ASSERT_TRUE(e.clock().explanation.has_value());
+    EXPECT_NEAR(e.clock().explanation->gap_s, 18.0, 1e-6);  // the middles of [0.1, 3.0] and [17.9, 21.2] s
+    EXPECT_NE(std::string(e.what()).find("between the middles of the two ranges), close to 18 s: GPS - UTC"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BagDataset, AnInsThatStopsEarlyIsNotAClockError) {
+  const fs::path dir = fresh_dir("ins_short");
+  BagBuilder b;
+  add_clouds(b, "/points", 30);
+  add_ins(b, InsSourceKind::kOdometry, 0.0, 0.85);  // covers 8 of 30 frames; the clocks agree
+  const fs::path bag = b.write(dir / "s.mcap");
+  const BagDatasets d = load_bag(options_for(bag));
+  EXPECT_TRUE(d.report.clock.consistent);
+  EXPECT_EQ(d.report.lidars[0].frames_used, 8u);
+  BagBuilder none;  // no frame inside at all, clocks still agreeing: an InputError, not a clock error
+  add_clouds(none, "/points", 10, DriverLayout::kHesai, kT0 + 5.0);
+  add_ins(none, InsSourceKind::kOdometry, 0.0, 2.0);
+  const std::string e = error_of([&] { load_bag(options_for(none.write(dir / "n.mcap"))); });
+  EXPECT_NE(e.find("no frame of /points (1700000005.100 .. 1700000006.000 s) lies inside the INS time range"),
+            std::string::npos) << e;
+}
+
 TEST(BagDataset, FramesHangingOverTheInsEndsAreSkippedNotFatal) {
   const fs::path dir = fresh_dir("overhang");
   BagBuilder b;

@@ -18,10 +18,11 @@ namespace insalign::io {
 
 namespace {
 
-constexpr double kMinInsideFraction = 0.5;    // fewer LiDAR frames inside the INS range: clocks disagree
+constexpr double kMinInsideFraction = 0.5;    // without usable record times: fewer frames inside, clocks disagree
 constexpr double kMaxStampGap_s = 2.0;        // INS - LiDAR stamps at equal record time beyond this: clocks differ
 constexpr double kRecordGapTolerance_s = 0.05;  // whole-second match, gap measured from record times
-constexpr double kRangeGapTolerance_s = 0.15;   // ... measured from where the ranges begin
+constexpr double kRangeGapTolerance_s = 0.15;   // ... measured between the middles of the ranges
+constexpr double kCopiedStamps_s = 1e-6;        // record time - stamp below this for both: copied stamps
 
 const char* solution_name(GnssSolution s) {
   switch (s) {
@@ -83,7 +84,7 @@ std::string range_words(const ClockReport& c) {
 
 std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
   std::string out = fmt::format("the INS stamps are {} than the LiDAR's ({})", signed_s(gap_s),
-                                from_records ? "median at equal record time" : "from where the two ranges begin");
+                                from_records ? "median at equal record time" : "between the middles of the two ranges");
   if (c.explanation) {
     return out + fmt::format(", close to {:.0f} s: {}", c.explanation->whole_s, c.explanation->meaning);
   }
@@ -108,10 +109,20 @@ ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const BagTraj
     if (std::isfinite(l.report.stamp_minus_record_s)) lags.push_back(l.report.stamp_minus_record_s);
   }
   c.frames_inside_fraction = static_cast<double>(inside) / static_cast<double>(std::max<std::size_t>(1, total));
-  if (!lags.empty()) c.stamp_gap_s = ins.report.stamp_minus_record_s - median_of(lags);
-  const bool from_records = std::isfinite(c.stamp_gap_s);
-  const double gap_s = from_records ? c.stamp_gap_s : c.ins_begin_s - c.lidar_begin_s;
-  c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !(std::abs(c.stamp_gap_s) > kMaxStampGap_s);
+  const double lidar_lag = median_of(lags), ins_lag = ins.report.stamp_minus_record_s;
+  // Record times copied from the stamps (converted data sets) say nothing about the clocks.
+  const bool from_records = std::isfinite(lidar_lag) && std::isfinite(ins_lag) &&
+                            !(std::abs(lidar_lag) < kCopiedStamps_s && std::abs(ins_lag) < kCopiedStamps_s);
+  if (from_records) c.stamp_gap_s = ins_lag - lidar_lag;
+  // Without record times: the middles of the ranges (recorders start and stop both sensors together).
+  const double gap_s = from_records ? c.stamp_gap_s : 0.5 * (c.ins_begin_s + c.ins_end_s - c.lidar_begin_s - c.lidar_end_s);
+  if (from_records) {
+    c.consistent = std::abs(c.stamp_gap_s) <= kMaxStampGap_s;
+  } else {  // by the ranges: most frames inside, and not both ends shifted alike
+    const double begin_shift = c.ins_begin_s - c.lidar_begin_s, end_shift = c.ins_end_s - c.lidar_end_s;
+    const bool shifted = std::abs(begin_shift) > kMaxStampGap_s && std::abs(begin_shift - end_shift) < kMaxStampGap_s;
+    c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !shifted;
+  }
   c.explanation = explain_clock_gap(gap_s, from_records ? kRecordGapTolerance_s : kRangeGapTolerance_s);
   c.summary = fmt::format("LiDAR frames {:.3f} .. {:.3f} s, INS {:.3f} .. {:.3f} s: {}; {}", c.lidar_begin_s,
                           c.lidar_end_s, c.ins_begin_s, c.ins_end_s, range_words(c), gap_words(c, gap_s, from_records));
@@ -124,8 +135,9 @@ void check_clocks(const ClockReport& c, const std::string& path) {
                                 ". Fix the clock of one sensor (or give the offset) and run again", c);
 }
 
-// The frames of one topic that the INS covers; the others counted.
-std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, std::vector<std::string>& warnings) {
+// The frames of one topic that the INS covers; the others counted. None: InputError.
+std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, std::vector<std::string>& warnings,
+                                      const std::string& path) {
   std::vector<CloudFrame> used;
   for (const CloudFrame& f : l.frames) {
     if (poses.covers(f.t_end_s)) used.push_back(f);
@@ -137,10 +149,14 @@ std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, s
     warnings.push_back(fmt::format("{}: skipped {} of {} frames outside the INS time range [{:.3f}, {:.3f}] s", r.topic,
                                    r.frames_outside_ins, l.frames.size(), poses.t_begin(), poses.t_end()));
   }
-  if (!used.empty()) {
-    r.t_begin_s = used.front().t_end_s, r.t_end_s = used.back().t_end_s;
-    r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(used.size() - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
+  if (used.empty()) {
+    throw InputError(path, "", fmt::format("no frame of {} ({:.3f} .. {:.3f} s) lies inside the INS time range "
+                                           "[{:.3f}, {:.3f}] s",
+                                           r.topic, l.frames.front().t_end_s, l.frames.back().t_end_s, poses.t_begin(),
+                                           poses.t_end()));
   }
+  r.t_begin_s = used.front().t_end_s, r.t_end_s = used.back().t_end_s;
+  r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(used.size() - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
   return used;
 }
 
@@ -225,7 +241,7 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
   std::optional<Iso3> init;
   if (options.init) init = read_opencalib_extrinsic(*options.init);
   for (LidarFrames& l : lidars) {
-    const std::vector<CloudFrame> used = frames_inside(l, ins.poses, rep.warnings);
+    const std::vector<CloudFrame> used = frames_inside(l, ins.poses, rep.warnings, path);
     Dataset d;
     d.frames = make_frame_source(reader, l.topic, used, out.counters);
     d.poses = ins.poses;

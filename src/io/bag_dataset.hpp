@@ -8,11 +8,14 @@
 // sweeps themselves are decoded by FrameSource::load(i), lazily and thread-safely, and carry
 // their exact latest point time. Nothing else is kept: memory is the index plus what is loaded.
 //
-// Clocks: LiDAR frames outside the INS time range are skipped with a warning; when fewer than
-// half of them fall inside it, or when the two sensors' stamps differ by more than a second at
-// the same record time, the clocks disagree: ClockGapError (an InputError) says by how much,
-// whether that is a known whole-second offset (GPS-UTC 18 s, TAI-UTC 37 s, TAI-GPS 19 s, time
-// zones), and both ranges.
+// Clocks: the recorder received both sensors' messages on one clock, so header.stamp - record
+// time, compared between the LiDAR and the INS, tells a clock difference from a late start. When
+// the two differ by more than 2 s the clocks disagree: ClockGapError (an InputError) says by how
+// much, whether that is a known whole-second offset (GPS-UTC 18 s, TAI-UTC 37 s, TAI-GPS 19 s,
+// time zones), and both ranges. Record times copied from the stamps (converted data sets) cannot
+// tell: then fewer than half the frames inside the INS range, or both ends of the ranges shifted
+// alike by more than 2 s, is the error. LiDAR frames outside the INS range are skipped with a
+// warning; none inside is an InputError.
 #pragma once
 
 #include <cstddef>
