@@ -3,6 +3,7 @@
 // chains, NavSatFix + Imu pairing, clock gaps, lazy loading, and the ecosystem fixtures of
 // tests/data/bags (README.md there lists what they hold).
 #include <gtest/gtest.h>
+#include <lz4frame.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -19,6 +20,7 @@
 
 #include "core/errors.hpp"
 #include "io/bag/bag_writer.hpp"
+#include "io/bag/lz4_frame.hpp"
 #include "io/bag/message_definitions.hpp"
 #include "io/bag/messages.hpp"
 #include "io/bag/pointcloud2.hpp"
@@ -81,6 +83,8 @@ class BagBuilder {
   void add(std::uint32_t topic, double log_s, std::vector<std::uint8_t> bytes) {
     messages_.push_back({topic, std::llround(log_s * 1e9), std::move(bytes)});
   }
+  std::vector<Topic>& topics_for_test() { return topics_; }
+  auto& messages_for_test() { return messages_; }
   fs::path write(const fs::path& path) {
     std::stable_sort(messages_.begin(), messages_.end(), [](const auto& a, const auto& b) { return a.log_ns < b.log_ns; });
     auto w = make_bag_writer(format_, path);
@@ -629,6 +633,87 @@ TEST(BagDataset, CloudsAreDecodedOnlyWhenLoaded) {
     EXPECT_EQ(s.size(), 60u);
     EXPECT_EQ(d.report.lidars[0].time_convention, PointTimeConvention::kRelativeNanoseconds);
   }
+}
+
+// ROS 1 lz4 chunks are decompressed only as far as a read needs (the INS messages before a cloud):
+// every read and prefix, in any order, gives the bytes a read of the whole chunk gives.
+TEST(BagDataset, Ros1PartialChunkReadsGiveTheSameBytes) {
+  const fs::path dir = fresh_dir("ros1_partial");
+  for (const std::size_t chunk_bytes : {std::size_t{768 * 1024}, std::size_t{2048}}) {
+    BagBuilder b(BagFormat::kRos1);
+    const std::uint32_t cloud = b.topic("/points", "sensor_msgs/PointCloud2"), odom = b.topic("/odom", "nav_msgs/Odometry");
+    for (int k = 0; k < 6; ++k) {
+      Sweep s;  // 40k points: 1.9 MB clouds, several LZ4 blocks
+      s.t_end_s = kT0 + 0.1 * (k + 1);
+      for (int i = 0; i < 40000; ++i) {
+        s.p_lidar.emplace_back(std::sin(0.001f * i) * 20.0f, static_cast<float>(i % 97), 0.5f * k);
+        s.dt_s.push_back(-0.1f * static_cast<float>(40000 - i) / 40000.0f);
+      }
+      for (int j = 0; j < 10; ++j) {
+        Odometry m;
+        m.header = header_at(s.t_end_s - 0.1 + 0.01 * j, "odom");
+        m.pose.pose.position = Vec3(j, k, 0.25 * j);
+        b.add(odom, s.t_end_s - 0.1 + 0.01 * j + 0.001, encode_message(m, b.enc()));
+      }
+      b.add(cloud, s.t_end_s + 0.005, encode_message(make_pointcloud2(s, DriverLayout::kHesai, "lidar"), b.enc()));
+    }
+    const fs::path path = dir / "p.bag";
+    {
+      std::stable_sort(b.messages_for_test().begin(), b.messages_for_test().end(),
+                       [](const auto& x, const auto& y) { return x.log_ns < y.log_ns; });
+      WriterOptions wo;
+      wo.compression = Compression::kLz4;
+      wo.chunk_bytes = chunk_bytes;
+      auto w = make_bag_writer(BagFormat::kRos1, path, wo);
+      for (const Topic& t : b.topics_for_test()) w->add_topic(t);
+      for (const auto& m : b.messages_for_test()) w->write(m.topic, m.log_ns, m.bytes);
+      w->close();
+    }
+    const auto truth = open_bag(path);  // whole messages, in file order
+    std::vector<std::pair<MessageRef, std::vector<std::uint8_t>>> all;
+    for (std::uint32_t t = 0; t < truth->topics().size(); ++t) {
+      for (const MessageRef& ref : truth->messages(t)) all.emplace_back(ref, truth->read(ref));
+    }
+    const auto partial = open_bag(path);  // prefixes first, then whole messages backwards
+    for (const auto& [ref, bytes] : all) {
+      const std::vector<std::uint8_t> p = partial->read_prefix(ref, 64);
+      ASSERT_EQ(p, std::vector<std::uint8_t>(bytes.begin(), bytes.begin() + std::min<std::size_t>(64, bytes.size())));
+    }
+    for (auto it = all.rbegin(); it != all.rend(); ++it) ASSERT_EQ(partial->read(it->first), it->second);
+    const auto odom_first = open_bag(path);  // INS first (partial chunks), then the clouds
+    for (const auto& [ref, bytes] : all) {
+      if (odom_first->topics()[ref.topic].name == "/odom") ASSERT_EQ(odom_first->read(ref), bytes);
+    }
+    for (const auto& [ref, bytes] : all) ASSERT_EQ(odom_first->read(ref), bytes);
+  }
+}
+
+// The partial LZ4 decoder on frames as liblz4 writes them with small linked blocks and checksums.
+TEST(BagDataset, Lz4PrefixesOfLinkedMultiBlockFrames) {
+  std::vector<std::uint8_t> content(300000);
+  std::uint32_t x = 12345;
+  for (std::size_t i = 0; i < content.size(); ++i) {
+    x = x * 1664525u + 1013904223u;
+    content[i] = static_cast<std::uint8_t>((i % 251 < 200) ? (i / 7) & 0xFF : x >> 24);  // repeats and noise
+  }
+  LZ4F_preferences_t prefs{};
+  prefs.frameInfo.blockSizeID = LZ4F_max64KB;
+  prefs.frameInfo.blockMode = LZ4F_blockLinked;
+  prefs.frameInfo.contentChecksumFlag = LZ4F_contentChecksumEnabled;
+  prefs.frameInfo.blockChecksumFlag = LZ4F_blockChecksumEnabled;
+  std::vector<std::uint8_t> frame(LZ4F_compressFrameBound(content.size(), &prefs));
+  frame.resize(LZ4F_compressFrame(frame.data(), frame.size(), content.data(), content.size(), &prefs));
+  for (const std::size_t wanted : {0, 1, 1000, 65535, 65536, 65537, 200000, 299999, 300000, 400000}) {
+    SCOPED_TRACE(wanted);
+    const std::size_t n = std::min(wanted, content.size());
+    const std::vector<std::uint8_t> expected(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(n));
+    EXPECT_EQ(lz4_frame_decompress_prefix(frame.data(), frame.size(), wanted, "f", 0), expected);
+    const std::size_t part = std::min(frame.size(), wanted + wanted / 128 + 4096);  // as the ROS 1 reader reads
+    EXPECT_EQ(lz4_frame_decompress_prefix(frame.data(), part, wanted, "f", 0), expected);
+  }
+  std::vector<std::uint8_t> corrupt = frame;
+  corrupt[0] ^= 1;
+  EXPECT_THROW(lz4_frame_decompress_prefix(corrupt.data(), corrupt.size(), 1000, "f", 7), InputError);
 }
 
 // --------------------------------------------------------------------------- geodetic fiducials

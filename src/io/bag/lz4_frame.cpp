@@ -1,6 +1,9 @@
 #include "io/bag/lz4_frame.hpp"
 
+#include <lz4.h>
 #include <lz4frame.h>
+
+#include <algorithm>
 
 #include <memory>
 #include <stdexcept>
@@ -53,6 +56,69 @@ std::vector<std::uint8_t> lz4_frame_decompress(const std::uint8_t* data, std::si
                      "lz4 data decompresses to " + std::to_string(out_pos) + " bytes, its record claims " +
                          std::to_string(expected_size));
   }
+  return out;
+}
+
+namespace {
+
+constexpr std::uint32_t kFrameMagic = 0x184D2204;
+constexpr std::size_t kWindowBytes = 64 * 1024;  // how far back a linked block may copy from
+
+std::uint32_t le32(const std::uint8_t* p) {
+  return std::uint32_t{p[0]} | std::uint32_t{p[1]} << 8 | std::uint32_t{p[2]} << 16 | std::uint32_t{p[3]} << 24;
+}
+
+}  // namespace
+
+std::vector<std::uint8_t> lz4_frame_decompress_prefix(const std::uint8_t* data, std::size_t size, std::size_t wanted,
+                                                      const std::string& file, std::uint64_t byte_offset) {
+  const auto fail = [&](const std::string& what) {
+    throw InputError(file, "byte " + std::to_string(byte_offset), "corrupt lz4 data: " + what);
+  };
+  std::vector<std::uint8_t> out(wanted);
+  std::size_t in = 0, produced = 0;
+  while (produced < wanted && in + 7 <= size) {  // frame by frame
+    if (le32(data + in) != kFrameMagic) fail("no LZ4 frame magic where a frame should start");
+    const std::uint8_t flg = data[in + 4], bd = data[in + 5];
+    if ((flg >> 6) != 1 || (flg & 1) != 0) fail("unknown LZ4 frame version or a dictionary");
+    const bool block_checksum = (flg & 0x10) != 0, content_size = (flg & 0x08) != 0, content_checksum = (flg & 0x04) != 0;
+    const int size_id = (bd >> 4) & 7;
+    if (size_id < 4) fail("unknown LZ4 block size");
+    const std::size_t block_max = std::size_t{1} << (8 + 2 * size_id);
+    in += 7 + (content_size ? 8 : 0);
+    while (produced < wanted) {  // block by block
+      if (in + 4 > size) {  // the caller passed only the part of the data it needs
+        out.resize(produced);
+        return out;
+      }
+      const std::uint32_t word = le32(data + in);
+      in += 4;
+      if (word == 0) {  // end mark
+        in += content_checksum ? 4 : 0;
+        break;
+      }
+      const bool stored = (word & 0x80000000u) != 0;
+      const std::size_t block = word & 0x7FFFFFFFu;
+      if (block > block_max) fail("a block larger than the frame's block size");
+      const std::size_t available = std::min(block, size - std::min(size, in));
+      const std::size_t target = std::min(wanted - produced, block_max);
+      int got = 0;
+      if (stored) {
+        got = static_cast<int>(std::min(available, target));
+        std::copy(data + in, data + in + got, out.data() + produced);
+      } else {
+        const std::size_t dict = std::min(produced, kWindowBytes);  // linked blocks copy from earlier output
+        got = LZ4_decompress_safe_partial_usingDict(reinterpret_cast<const char*>(data + in),
+                                                    reinterpret_cast<char*>(out.data() + produced), static_cast<int>(available),
+                                                    static_cast<int>(target), static_cast<int>(target),
+                                                    reinterpret_cast<const char*>(out.data() + produced - dict), static_cast<int>(dict));
+        if (got < 0) fail("a block does not decode");
+      }
+      produced += static_cast<std::size_t>(got);
+      in += block + (block_checksum ? 4 : 0);
+    }
+  }
+  out.resize(produced);
   return out;
 }
 

@@ -13,8 +13,10 @@
 #include <cerrno>
 #include <climits>
 #include <cstring>
+#include <limits>
 #include <list>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <tuple>
@@ -426,7 +428,19 @@ Bytes decompress_chunk(const BagFile& file, const Chunk& chunk) {
   return lz4_frame_decompress(stored.data(), stored.size(), chunk.size, file.name(), chunk.pos);
 }
 
-// The last few decompressed chunks: small messages in time order share chunks.
+// The first `wanted` bytes of a chunk's data: an lz4 chunk is decompressed (and read from the file)
+// only that far, so the small messages before a cloud cost no cloud; bz2 and uncompressed: all.
+Bytes decompress_chunk_prefix(const BagFile& file, const Chunk& chunk, std::size_t wanted) {
+  if (chunk.compression != ChunkCompression::kLz4 || wanted >= chunk.size) return decompress_chunk(file, chunk);
+  // LZ4 expands every input byte to at least 255/256 of an output byte: this much input suffices.
+  const std::size_t stored_bytes = std::min<std::size_t>(chunk.data_len, wanted + wanted / 128 + 4096);
+  Bytes stored(stored_bytes);
+  file.read(chunk.data_pos, stored.data(), stored.size());
+  return lz4_frame_decompress_prefix(stored.data(), stored.size(), wanted, file.name(), chunk.pos);
+}
+
+// The last few decompressed chunks (or the first part of one): small messages in time order share
+// chunks.
 class ChunkCache {
  public:
   std::shared_ptr<const Bytes> find(std::uint64_t chunk) {
@@ -441,8 +455,12 @@ class ChunkCache {
   }
   void insert(std::uint64_t chunk, std::shared_ptr<const Bytes> data) {
     const std::lock_guard lock(mutex_);
-    for (const auto& entry : entries_) {
-      if (entry.first == chunk) return;  // another thread decompressed it meanwhile
+    for (auto it = entries_.begin(); it != entries_.end(); ++it) {
+      if (it->first != chunk) continue;
+      if (it->second->size() >= data->size()) return;  // another thread decompressed as much meanwhile
+      bytes_ -= it->second->size();                     // a longer part of the chunk replaces a shorter
+      entries_.erase(it);
+      break;
     }
     bytes_ += data->size();
     entries_.emplace_front(chunk, std::move(data));
@@ -698,6 +716,7 @@ class Ros1BagReader final : public BagReader {
     return c_.messages[topic];
   }
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
+  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
   std::string describe() const override;
   const std::vector<std::string>& warnings() const override { return c_.warnings; }
   std::int64_t start_time_ns() const override { return c_.start_ns; }
@@ -705,6 +724,10 @@ class Ros1BagReader final : public BagReader {
   const std::filesystem::path& path() const override { return path_; }
 
  private:
+  std::shared_ptr<const Bytes> chunk_data(std::uint64_t locator, std::uint64_t until) const;
+  static std::optional<std::uint64_t> record_end(const Bytes& data, std::uint64_t pos);
+  const Chunk& chunk_of(const MessageRef& ref) const;
+
   Record message_record(Source& src, std::uint64_t pos, const MessageRef& ref) const {
     const Record r = expect_record(src, pos, ros1::kOpMessageData, "where the index points");
     if (topic_of(c_, r.u32("conn"), r.where) != ref.topic) r.where.fail("the index points at a message of another topic");
@@ -717,11 +740,38 @@ class Ros1BagReader final : public BagReader {
   mutable ChunkCache cache_;
 };
 
-std::vector<std::uint8_t> Ros1BagReader::read(const MessageRef& ref) const {
+const Chunk& Ros1BagReader::chunk_of(const MessageRef& ref) const {
   if (ref.topic >= c_.topics.size() || ref.locator >= c_.chunks.size()) {
     throw std::out_of_range("a MessageRef that is not from " + file_.name());
   }
-  const Chunk& chunk = c_.chunks[ref.locator];
+  return c_.chunks[ref.locator];
+}
+
+// A compressed chunk's data reaching at least `until` bytes: from the cache, else decompressed as
+// far as that (growing geometrically, all of it once most is needed), and cached.
+std::shared_ptr<const Bytes> Ros1BagReader::chunk_data(std::uint64_t locator, std::uint64_t until) const {
+  constexpr std::uint64_t kMinPart = 64 * 1024;
+  const Chunk& chunk = c_.chunks[locator];
+  std::shared_ptr<const Bytes> data = cache_.find(locator);
+  if (data != nullptr && (data->size() >= until || data->size() >= chunk.size)) return data;
+  std::uint64_t want = std::max({until, kMinPart, data != nullptr ? 2 * data->size() : 0});
+  if (2 * want >= chunk.size) want = chunk.size;
+  // Two threads missing the same chunk at once both decompress it: rare, and still correct.
+  data = std::make_shared<const Bytes>(decompress_chunk_prefix(file_, chunk, static_cast<std::size_t>(want)));
+  cache_.insert(locator, data);
+  return data;
+}
+
+// Where the record at `pos` ends, from its two lengths, when `data` holds them.
+std::optional<std::uint64_t> Ros1BagReader::record_end(const Bytes& data, std::uint64_t pos) {
+  if (pos > data.size() || data.size() - pos < 4) return std::nullopt;
+  const std::uint64_t header_len = le32(data.data() + pos);
+  if (header_len > kMaxRecordHeaderBytes || data.size() - pos - 4 < header_len + 4) return std::nullopt;
+  return pos + 8 + header_len + le32(data.data() + pos + 4 + header_len);
+}
+
+std::vector<std::uint8_t> Ros1BagReader::read(const MessageRef& ref) const {
+  const Chunk& chunk = chunk_of(ref);
   if (chunk.compression == ChunkCompression::kNone) {
     // Straight from the file: a 3 MB point cloud costs one read of its bytes.
     FileSource src(file_, chunk.data_pos + chunk.data_len);
@@ -735,15 +785,53 @@ std::vector<std::uint8_t> Ros1BagReader::read(const MessageRef& ref) const {
     }
     return out;
   }
-  std::shared_ptr<const Bytes> data = cache_.find(ref.locator);
-  if (data == nullptr) {
-    // Two threads missing the same chunk at once both decompress it: rare, and still correct.
-    data = std::make_shared<const Bytes>(decompress_chunk(file_, chunk));
-    cache_.insert(ref.locator, data);
-  }
+  // The chunk as far as the record's header, then as far as its end: reading the INS messages
+  // before a cloud does not decompress the cloud.
+  std::shared_ptr<const Bytes> data = chunk_data(ref.locator, ref.locator2 + kReadAheadBytes);
+  data = chunk_data(ref.locator, record_end(*data, ref.locator2).value_or(chunk.size));
   ChunkSource src(*data, chunk, file_.name());
   const Record r = message_record(src, ref.locator2, ref);
   const ByteSpan bytes = src.get(r.data_pos, r.data_len, "message data");
+  return Bytes(bytes.begin(), bytes.end());
+}
+
+std::vector<std::uint8_t> Ros1BagReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
+  const Chunk& chunk = chunk_of(ref);
+  if (chunk.compression == ChunkCompression::kNone) {
+    FileSource src(file_, chunk.data_pos + chunk.data_len);
+    const Record r = message_record(src, chunk.data_pos + ref.locator2, ref);
+    Bytes out(std::min<std::size_t>(r.data_len, max_bytes));
+    file_.read(r.data_pos, out.data(), out.size());
+    return out;
+  }
+  std::shared_ptr<const Bytes> data = chunk_data(ref.locator, ref.locator2 + kReadAheadBytes + max_bytes);
+  const std::optional<std::uint64_t> end = record_end(*data, ref.locator2);
+  if (!end) {  // no header where the index points: the whole read says what is wrong
+    Bytes all = read(ref);
+    all.resize(std::min(all.size(), max_bytes));
+    return all;
+  }
+  if (*end > data->size()) {  // the record is longer than what was decompressed: check it on its header
+    const std::uint64_t header_len = le32(data->data() + ref.locator2);
+    const std::uint64_t data_pos = ref.locator2 + 8 + header_len;
+    data = chunk_data(ref.locator, data_pos + max_bytes);
+    Fields fields;
+    const std::string problem = parse_fields(ByteSpan(*data).subspan(ref.locator2 + 4, header_len), fields);
+    const Where where = ChunkSource(*data, chunk, file_.name()).at(ref.locator2);
+    const std::string* op = fields.find("op");
+    if (!problem.empty() || op == nullptr || *op != std::string(1, static_cast<char>(ros1::kOpMessageData))) {
+      where.fail("where the index points there is no message data record" + (problem.empty() ? "" : ": " + problem));
+    }
+    const std::string* conn = fields.find("conn");
+    if (conn == nullptr || conn->size() != 4 || topic_of(c_, le32(reinterpret_cast<const std::uint8_t*>(conn->data())), where) != ref.topic) {
+      where.fail("the index points at a message of another topic");
+    }
+    const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_bytes, data->size() - data_pos));
+    return Bytes(data->begin() + static_cast<std::ptrdiff_t>(data_pos), data->begin() + static_cast<std::ptrdiff_t>(data_pos + n));
+  }
+  ChunkSource src(*data, chunk, file_.name());
+  const Record r = message_record(src, ref.locator2, ref);
+  const ByteSpan bytes = src.get(r.data_pos, std::min<std::size_t>(r.data_len, max_bytes), "message data");
   return Bytes(bytes.begin(), bytes.end());
 }
 
