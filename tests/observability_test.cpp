@@ -18,7 +18,7 @@ std::array<bool, 6> flags(std::initializer_list<int> undetermined) {
 
 std::string describe_flags(const DofVerdict& v) {
   std::string s;
-  for (int i = 0; i < 6; ++i) s += std::string(dof_names()[i]) + (v.determined[i] ? "=det " : "=UNDET ");
+  for (int i = 0; i < 6; ++i) s += std::string(kDofNames[i]) + (v.determined[i] ? "=det " : "=UNDET ");
   return s + "| " + v.explanation;
 }
 

@@ -53,26 +53,6 @@ std::vector<Vec3> target_normals(const std::vector<Vec3>& target, const KdTree& 
 
 }  // namespace
 
-std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m) {
-  const double inv = 1.0 / voxel_m;
-  std::unordered_map<std::uint64_t, std::uint32_t> slot;
-  slot.reserve(points.size());
-  std::vector<Vec3> sum;
-  std::vector<int> count;
-  for (const Vec3& p : points) {
-    auto [it, inserted] = slot.try_emplace(voxel_key(p, inv), static_cast<std::uint32_t>(sum.size()));
-    if (inserted) {
-      sum.push_back(p);
-      count.push_back(1);
-    } else {
-      sum[it->second] += p;
-      ++count[it->second];
-    }
-  }
-  for (std::size_t i = 0; i < sum.size(); ++i) sum[i] /= static_cast<double>(count[i]);
-  return sum;
-}
-
 ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std::vector<Vec3>& source,
                                       const Iso3& T_target_source_init, const ScanRegistrationConfig& config) {
   ScanRegistrationResult result;

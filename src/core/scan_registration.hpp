@@ -36,7 +36,4 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
                                       const Iso3& T_target_source_init,
                                       const ScanRegistrationConfig& config = {});
 
-/// One point per occupied voxel (the centroid), order deterministic.
-std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m);
-
 }  // namespace insalign

@@ -36,7 +36,7 @@ json result_to_json(const CalibrationResult& r, const LoadReport& load, const Dr
   out["stddev"] = dof_map(r.stddev, true);
   if (r.refine) out["stddev"]["time_offset_s"] = number(r.refine->time_offset_stddev_s);
   json determined = json::object();
-  for (int i = 0; i < 6; ++i) determined[dof_names()[i]] = r.determined[i];
+  for (int i = 0; i < 6; ++i) determined[kDofNames[i]] = r.determined[i];
   out["determined"] = determined;
   out["tz_source"] = r.z.method;
   out["warnings"] = r.warnings;
