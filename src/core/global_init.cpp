@@ -5,9 +5,10 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <map>
 #include <sstream>
+
+#include <fmt/format.h>
 
 #include "core/deskew.hpp"
 #include "core/occupancy.hpp"
@@ -17,11 +18,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-std::string fmt(const char* format, double a, double b = 0, double c = 0, double d = 0) {
-  char buf[256];
-  std::snprintf(buf, sizeof buf, format, a, b, c, d);
-  return buf;
-}
 
 std::vector<Vec3> to_vec3(const std::vector<Vec3f>& points) {
   std::vector<Vec3> out(points.size());
@@ -81,10 +77,10 @@ double ins_height_above_ground(const std::vector<InitFrame*>& frames, const std:
     if (nearest && (nearest->p_world - p_ins).head<2>().norm() < 30.0) sum += p_ins.z() - nearest->p_world.z(), ++count;
   }
   if (count == 0) {
-    how = fmt("INS assumed %.2f m above the ground (no fiducials; stage 3 fixes z)", guess_m);
+    how = fmt::format("INS assumed {:.2f} m above the ground (no fiducials; stage 3 fixes z)", guess_m);
     return guess_m;
   }
-  how = fmt("INS %.2f m above the ground (nearest fiducials)", sum / count);
+  how = fmt::format("INS {:.2f} m above the ground (nearest fiducials)", sum / count);
   return sum / count;
 }
 
@@ -137,7 +133,7 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
   const ExtrinsicError diff = extrinsic_error(init.T_ins_lidar, cand[best].T_ins_lidar);
   const bool same_basin = diff.angle_deg < config.same_basin_rot_deg && diff.dt_norm_m < config.same_basin_trans_m;
   const double ratio = init.score / cand[best].score;
-  why << " Init differs from " << cand[best].label << fmt(" by %.1f deg and %.2f m", diff.angle_deg, diff.dt_norm_m);
+  why << " Init differs from " << cand[best].label << fmt::format(" by {:.1f} deg and {:.2f} m", diff.angle_deg, diff.dt_norm_m);
   result.T_ins_lidar = *T_init;
   result.source = InitSource::kInit;
   if (same_basin) {
@@ -146,10 +142,10 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
     result.T_ins_lidar = cand[best].T_ins_lidar;
     result.source = InitSource::kDataOverridesInit;
     why << ": the data clearly prefers " << cand[best].label
-        << fmt(" (init scores %.3f times worse, threshold %.3f); continuing from the data.", ratio,
+        << fmt::format(" (init scores {:.3f} times worse, threshold {:.3f}); continuing from the data.", ratio,
                config.override_score_ratio);
   } else {
-    why << fmt(": the data does not clearly prefer another basin (score ratio init/data %.3f <= %.3f); init kept.",
+    why << fmt::format(": the data does not clearly prefer another basin (score ratio init/data {:.3f} <= {:.3f}); init kept.",
                ratio, config.override_score_ratio);
   }
 }
@@ -189,7 +185,7 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
                                           "degree of freedom of the extrinsic can be determined", t0);
   }
   if (drive.distance_m < 2.0) {
-    return cannot_start(T_ins_lidar_init, fmt("the vehicle moves only %.2f m over the drive; yaw and the horizontal "
+    return cannot_start(T_ins_lidar_init, fmt::format("the vehicle moves only {:.2f} m over the drive; yaw and the horizontal "
                                               "lever arm of the extrinsic need motion (drive and turn)", drive.distance_m), t0);
   }
   const InitPlan plan = plan_frames(drive, store.sweep_period_s(), config);
@@ -231,13 +227,12 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
     result.hand_eye_pairs_used = static_cast<int>(std::count(he.inlier.begin(), he.inlier.end(), true));
     result.hand_eye_rms_m = he.rms_m;
     result.lever_arm_observed = he.lever_arm_observed;
-    data_how = fmt("hand-eye over %.0f of %.0f registered pairs (%.0f selected), residual rms %.3f m",
-                   result.hand_eye_pairs_used, static_cast<double>(motions.size()),
-                   static_cast<double>(plan.pairs.size()), he.rms_m);
+    data_how = fmt::format("hand-eye over {} of {} registered pairs ({} selected), residual rms {:.3f} m",
+                           result.hand_eye_pairs_used, motions.size(), plan.pairs.size(), he.rms_m);
     if (!he.lever_arm_observed) data_how += "; no turns: horizontal lever arm not observed, set to 0";
   } else {
-    data_how = fmt("hand-eye failed (%.0f of %.0f pairs registered): coarse yaw, horizontal lever arm 0",
-                   static_cast<double>(motions.size()), static_cast<double>(plan.pairs.size()));
+    data_how = fmt::format("hand-eye failed ({} of {} pairs registered): coarse yaw, horizontal lever arm 0",
+                           motions.size(), plan.pairs.size());
   }
 
   // 4. Scores: crispness of the coarse stretch and of every pair.
@@ -252,10 +247,10 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   result.score_s = elapsed() - result.load_s - result.coarse_s - result.hand_eye_s;
 
   std::ostringstream why;
-  why << fmt("levelled from %.0f ground planes (normal spread %.2f deg, LiDAR %.2f m above ground); ",
+  why << fmt::format("levelled from {} ground planes (normal spread {:.2f} deg, LiDAR {:.2f} m above ground); ",
              level.planes_used, level.normal_spread_deg, level.lidar_height_m)
-      << fmt("coarse yaw %.1f deg by crispness of %.0f frames over %.1f m; ", result.coarse_yaw_deg,
-             static_cast<double>(plan.coarse.size()), plan.coarse_stretch_m)
+      << fmt::format("coarse yaw {:.1f} deg by crispness of {} frames over {:.1f} m; ", result.coarse_yaw_deg,
+                     plan.coarse.size(), plan.coarse_stretch_m)
       << data_how << "; z: " << z_how << ". Scores (occupied " << config.crispness_voxel_m
       << " m voxels, lower is crisper):";
   for (const InitCandidate& c : cand) why << " " << c.label << " " << c.score;

@@ -14,7 +14,6 @@ namespace {
 Mat3 rot_z(double yaw_rad) { return Eigen::AngleAxisd(yaw_rad, Vec3::UnitZ()).toRotationMatrix(); }
 // Rotation about z of a nearly planar rotation.
 double yaw_of(const Mat3& R) { return std::atan2(R(1, 0), R(0, 0)); }
-double wrap_pi(double a) { return std::remainder(a, 6.283185307179586); }
 double angle_deg(const Mat3& R) { return Eigen::AngleAxisd(R).angle() * kDegPerRad; }
 
 std::vector<Vec3> to_vec3(const std::vector<Vec3f>& points) {

@@ -10,8 +10,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
-#include <sstream>
+#include <fmt/format.h>
 
 #include "core/deskew.hpp"
 #include "core/occupancy.hpp"
@@ -222,11 +221,7 @@ std::vector<int> active_dofs(const RefineConfig& c) {
   return dofs;
 }
 
-std::string fmt_m(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
+std::string fmt_m(double v) { return fmt::format("{}", v); }
 
 // ---- The paper's search: coordinate-wise grid search with shrinking steps on occupancy. ----
 State grid_search(const Problem& p, const State& start, const RefineConfig& config, RefineResult& result,
@@ -437,6 +432,19 @@ RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::si
   return finish();
 }
 
+std::vector<RefineSystem> refine_systems(const FrameStore& store, const std::vector<std::size_t>& frames,
+                                         const std::vector<std::pair<Iso3, double>>& states, const RefineConfig& config) {
+  const Problem p = make_problem(store.poses(), store.thinned(frames, config.filter));
+  std::vector<RefineSystem> out;
+  std::vector<Vec3f> scratch;
+  LocalPlanes planes;
+  for (const auto& [T_ins_lidar, time_offset_s] : states) {
+    const NormalEquations ne = build_normal_equations(p, State{T_ins_lidar, time_offset_s}, config, scratch, planes);
+    out.push_back({ne.cost, ne.g, ne.H, ne.n});
+  }
+  return out;
+}
+
 RefineResult refine_checked(const FrameStore& store, const std::vector<std::size_t>& frames,
                             const Iso3& T_ins_lidar_start, double time_offset_start_s, double max_speed_mps,
                             const RefineConfig& config, const std::function<void(double)>& progress,
@@ -446,13 +454,11 @@ RefineResult refine_checked(const FrameStore& store, const std::vector<std::size
   const double explained_m =
       max_speed_mps * std::abs(refine.time_offset_s - time_offset_start_s) + config.max_unexplained_shift_m;
   if (!refine.outcome.ok() || !refine.time_offset_estimated || shift_m <= explained_m) return refine;
-  char buf[400];
-  std::snprintf(buf, sizeof buf,
-                "stage 2 moved the lever arm by %.1f cm with a time offset of %+.1f ms, more than the offset "
-                "explains (%.1f cm): this drive cannot separate the time offset from the lever arm (too few "
-                "vertical structures?); stage 2 repeated with the offset fixed at %+.1f ms",
-                100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * time_offset_start_s);
-  warning = buf;
+  warning = fmt::format(
+      "stage 2 moved the lever arm by {:.1f} cm with a time offset of {:+.1f} ms, more than the offset explains "
+      "({:.1f} cm): this drive cannot separate the time offset from the lever arm (too few vertical structures?); "
+      "stage 2 repeated with the offset fixed at {:+.1f} ms",
+      100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * time_offset_start_s);
   RefineConfig fixed_offset = config;
   fixed_offset.estimate_time_offset = false;
   return refine_extrinsic(store, frames, T_ins_lidar_start, time_offset_start_s, fixed_offset, progress);

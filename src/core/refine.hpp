@@ -30,7 +30,7 @@ enum class RefineMethod {
 };
 
 inline constexpr std::array<std::pair<RefineMethod, std::string_view>, 2> kRefineMethodNames{
-    {{RefineMethod::kContinuous, "continuous"}, {RefineMethod::kOccupancyGrid, "occupancy_grid"}}};
+    {{RefineMethod::kContinuous, "continuous"}, {RefineMethod::kOccupancyGrid, "occupancy-grid"}}};
 constexpr auto enum_names(RefineMethod) { return std::span(kRefineMethodNames); }
 
 struct RefineConfig {
@@ -82,7 +82,7 @@ struct RefineConfig {
 
 template <class V>
 void visit_config(V& v, RefineConfig& c) {
-  v("method", c.method, "crispness measure: continuous (plane thickness, Gauss-Newton) or occupancy_grid (the paper)");
+  v("method", c.method, "crispness measure: continuous (plane thickness, Gauss-Newton) or occupancy-grid (the paper)");
   v("max_frames", c.max_frames, "frames spread over the drive's motion");
   v("min_motion_m", c.min_motion_m, "at most one frame per this much motion measure, m");
   v.section("filter", c.filter);
@@ -155,6 +155,21 @@ std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConf
 RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,
                               const Iso3& T_ins_lidar_start, double time_offset_start_s,
                               const RefineConfig& config = {}, const std::function<void(double)>& progress = {});
+
+/// Stage 2's least-squares system (the continuous method's point-to-plane residuals on the
+/// stitched map's local planes, Huber-weighted) at each of `states` (extrinsic, time offset): the
+/// planes are found at the first state and only refitted (centroid, normal) at the others, as the
+/// Gauss-Newton iterations see them once the grouping is frozen. Parameters [tx ty tz, w_x w_y w_z
+/// (R' = exp(w) R), time offset]. Exposed so a test can check the hand-written Jacobian (its
+/// time-offset column included) against numerical differentiation.
+struct RefineSystem {
+  double cost = 0.0;                          ///< sum of w r^2, m^2
+  Eigen::Matrix<double, 7, 1> gradient;       ///< sum of w r J (half the cost's gradient at w = 1)
+  Eigen::Matrix<double, 7, 7> hessian;        ///< Gauss-Newton, plane offsets eliminated
+  std::size_t points = 0;
+};
+std::vector<RefineSystem> refine_systems(const FrameStore& store, const std::vector<std::size_t>& frames,
+                                         const std::vector<std::pair<Iso3, double>>& states, const RefineConfig& config);
 
 /// Stage 2, checked: it may move the horizontal lever arm only as far as its change of the time
 /// offset explains (the map shifts by speed x offset along the travel) plus

@@ -4,7 +4,7 @@
 
 #include <chrono>
 #include <cmath>
-#include <sstream>
+#include <fmt/format.h>
 
 namespace insalign {
 namespace {
@@ -50,11 +50,8 @@ SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInpu
 }
 
 std::string format_spread(const Vec6& spread) {
-  std::ostringstream os;
-  os.precision(3);
-  os << "x " << spread[0] * 100 << " cm, y " << spread[1] * 100 << " cm, roll " << spread[3] * kDegPerRad
-     << " deg, pitch " << spread[4] * kDegPerRad << " deg, yaw " << spread[5] * kDegPerRad << " deg";
-  return os.str();
+  return fmt::format("x {:.3g} cm, y {:.3g} cm, roll {:.3g} deg, pitch {:.3g} deg, yaw {:.3g} deg", spread[0] * 100,
+                     spread[1] * 100, spread[3] * kDegPerRad, spread[4] * kDegPerRad, spread[5] * kDegPerRad);
 }
 
 // Spread over the successful segments, and the whole drive's sigma it implies.

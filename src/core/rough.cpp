@@ -217,12 +217,6 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
 
 }  // namespace
 
-Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta) {
-  Iso3 out = T_ins_lidar;
-  out.linear() = nearest_rotation(so3_exp(delta.tail<3>()) * T_ins_lidar.linear());
-  out.translation() = T_ins_lidar.translation() + delta.head<3>();
-  return out;
-}
 
 PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
                                     double robust_scale_m) {

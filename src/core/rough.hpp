@@ -133,7 +133,5 @@ struct PointPlaneSystem {
 PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
                                     double robust_scale_m);
 
-/// The perturbation the stage uses: R' = exp(w) R, t' = t + rho, delta = [rho; w].
-Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta);
 
 }  // namespace insalign

@@ -5,7 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+#include <fmt/format.h>
 
 #include "core/deskew.hpp"
 #include "core/stats.hpp"
@@ -149,10 +149,7 @@ SurfaceHeight fit_surface(const LocalMap& map, const Eigen::Vector2d& centre_xy,
   }
   const double slope_deg = std::atan(std::hypot(fit.a, fit.b)) * kDegPerRad;
   if (slope_deg > max_slope_deg) {
-    char buf[96];
-    std::snprintf(buf, sizeof buf, "the surface near it slopes %.0f deg (more than %.0f): not ground", slope_deg,
-                  max_slope_deg);
-    out.problem = buf;
+    out.problem = fmt::format("the surface near it slopes {:.0f} deg (more than {:.0f}): not ground", slope_deg, max_slope_deg);
     return out;
   }
   // A map point moves by up * dz; on the plane with normal ~(-a, -b, 1) that moves the height at a

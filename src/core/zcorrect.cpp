@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
+#include <fmt/format.h>
 
 #include "core/z_surface.hpp"
 
@@ -12,11 +12,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string fmt_m(double v) {
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "%+.3f m", v);
-  return buf;
-}
+std::string fmt_m(double v) { return fmt::format("{:+.3f} m", v); }
 
 // The covered frames of the drive at the time offset, with their INS poses.
 DriveFrames covered_frames(const FrameStore& store, double time_offset_s) {
@@ -99,10 +95,8 @@ std::vector<DzSample> measure_fiducials(const FrameStore& store, const std::vect
     FiducialResidual& fr = result.fiducials[f];
     fr.id = fiducials[f].id;
     if (targets[f].frames.empty()) {
-      char buf[160];
-      std::snprintf(buf, sizeof buf, "the LiDAR never came within %.0f-%.0f m of it during the frames",
-                    config.min_view_distance_m, config.max_view_distance_m);
-      fr.reason_rejected = buf;
+      fr.reason_rejected = fmt::format("the LiDAR never came within {:.0f}-{:.0f} m of it during the frames",
+                                       config.min_view_distance_m, config.max_view_distance_m);
       continue;
     }
     const SurfaceHeight h = fit_surface(maps[f], targets[f].centre_xy, config.match, config.min_points, 45.0, 0.15);
@@ -187,10 +181,9 @@ void from_fiducials(const FrameStore& store, const Iso3& T_ins_lidar, double tim
   const double sd = std::hypot(mean.stddev_m, config.ins_vertical_sigma_m);
   set_determined(result, ZMethod::kFiducials, T_ins_lidar, mean.mean_m, sd);
   const std::size_t used = std::count_if(result.fiducials.begin(), result.fiducials.end(), [](auto& f) { return f.used; });
-  char buf[200];
-  std::snprintf(buf, sizeof buf, "tz from %zu of %zu fiducials: dz = %+.3f m (tz %.3f -> %.3f m, +- %.3f m)", used,
-                result.fiducials.size(), mean.mean_m, T_ins_lidar.translation().z(), result.T_ins_lidar.translation().z(), sd);
-  result.outcome.message = buf;
+  result.outcome.message =
+      fmt::format("tz from {} of {} fiducials: dz = {:+.3f} m (tz {:.3f} -> {:.3f} m, +- {:.3f} m)", used,
+                  result.fiducials.size(), mean.mean_m, T_ins_lidar.translation().z(), result.T_ins_lidar.translation().z(), sd);
   if (used < result.fiducials.size()) result.outcome.message += "; not used: " + rejected_list(result);
 }
 
@@ -305,13 +298,11 @@ void from_height(const FrameStore& store, const Iso3& T_ins_lidar, double time_o
   const RobustMean mean = robust_mean(samples, config.outlier_threshold_m, config.outlier_mad_factor);
   result.height_samples_used = std::count(mean.inlier.begin(), mean.inlier.end(), 1);
   set_determined(result, ZMethod::kInsHeight, T_ins_lidar, mean.mean_m, mean.stddev_m);
-  char buf[300];
-  std::snprintf(buf, sizeof buf,
-                "tz from the INS height above the ground (%.3f m as given) measured at %zu places along the "
-                "drive: dz = %+.3f m (tz %.3f -> %.3f m, +- %.3f m, not counting the error of the given height)",
-                ins_height_m, result.height_samples_used, mean.mean_m, T_ins_lidar.translation().z(),
-                result.T_ins_lidar.translation().z(), mean.stddev_m);
-  result.outcome.message = buf;
+  result.outcome.message = fmt::format(
+      "tz from the INS height above the ground ({:.3f} m as given) measured at {} places along the drive: dz = "
+      "{:+.3f} m (tz {:.3f} -> {:.3f} m, +- {:.3f} m, not counting the error of the given height)",
+      ins_height_m, result.height_samples_used, mean.mean_m, T_ins_lidar.translation().z(),
+      result.T_ins_lidar.translation().z(), mean.stddev_m);
 }
 
 }  // namespace
@@ -332,16 +323,14 @@ ZResult correct_z(const FrameStore& store, const Iso3& T_ins_lidar, double time_
     if (!fiducial_problem.empty()) result.outcome.message = fiducial_problem + "; " + result.outcome.message;
   }
   if (!result.determined()) {
-    char buf[64];
-    std::snprintf(buf, sizeof buf, "%.3f m", T_ins_lidar.translation().z());
+    const std::string tz = fmt::format("{:.3f} m", T_ins_lidar.translation().z());
     result.T_ins_lidar = T_ins_lidar;
     if (!have_fiducials && !ins_height_m) {
       result.outcome.status = StageStatus::kSkipped;
-      result.outcome.message = "tz not determined: no fiducials and no --ins-height-m given; kept at the initial value (" +
-                               std::string(buf) + ")";
+      result.outcome.message = "tz not determined: no fiducials and no --ins-height-m given; kept at the initial value (" + tz + ")";
     } else {
       result.outcome.status = StageStatus::kUndetermined;
-      result.outcome.message += "; tz kept at the initial value (" + std::string(buf) + ")";
+      result.outcome.message += "; tz kept at the initial value (" + tz + ")";
     }
   }
   result.outcome.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

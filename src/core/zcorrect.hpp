@@ -23,7 +23,7 @@ enum class FiducialMatch {
   kLocalPlane,        ///< robust plane through the map points near it, evaluated at the fiducial
 };
 inline constexpr std::array<std::pair<FiducialMatch, std::string_view>, 2> kFiducialMatchNames{
-    {{FiducialMatch::kLocalPlane, "local_plane"}, {FiducialMatch::kNearestNeighbour, "nearest_neighbour"}}};
+    {{FiducialMatch::kLocalPlane, "local-plane"}, {FiducialMatch::kNearestNeighbour, "nearest-neighbour"}}};
 constexpr auto enum_names(FiducialMatch) { return std::span(kFiducialMatchNames); }
 
 /// What fixed tz.
@@ -91,7 +91,7 @@ struct ZConfig {
 
 template <class V>
 void visit_config(V& v, ZConfig& c) {
-  v("match", c.match, "how a fiducial meets the map: local_plane (robust plane) or nearest_neighbour (the paper)");
+  v("match", c.match, "how a fiducial meets the map: local-plane (robust plane) or nearest-neighbour (the paper)");
   v("search_radius_m", c.search_radius_m, "map points within this horizontal distance form a fiducial's local map, m");
   v("min_points", c.min_points, "a fiducial needs at least this many map points");
   v("outlier_threshold_m", c.outlier_threshold_m, "fiducials farther than max(this, mad_factor * MAD) from the median dz are outliers, m");
