@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <fstream>
 #include <map>
 #include <random>
 #include <sstream>
+#include <thread>
 
 #include "core/errors.hpp"
 
@@ -69,6 +71,8 @@ std::uint32_t topic_index(const BagReader& r, const std::string& name) {
   ADD_FAILURE() << "no topic " << name;
   return 0;
 }
+
+Bytes first_bytes(const Bytes& data, std::size_t n) { return {data.begin(), data.begin() + std::min(n, data.size())}; }
 
 // ---------------------------------------------------------------------------------------------
 // The real recordings (written by the ROS 2 tools: "mcap go" with zstd, libmcap 0.8.0 uncompressed)
@@ -138,6 +142,69 @@ TEST(Mcap, RealCdrTestRecording) {
   EXPECT_EQ(total, 7u);
 }
 
+// Files written by @mcap/core (tests/fixtures/bags/make_mcap.mjs; facts in out/mcap_summary.json).
+const fs::path kFixtureDir = fs::path(__FILE__).parent_path() / "data" / "bags";
+
+TEST(Mcap, IndependentWriterZstdAndLz4) {
+  for (const char* name : {"mcap_hesai_ouster_zstd.mcap", "mcap_hesai_ouster_lz4.mcap"}) {
+    const auto reader = open_mcap(kFixtureDir / name);
+    EXPECT_NE(reader->describe().find(std::string(name).find("lz4") != std::string::npos ? "lz4 chunks" : "zstd chunks"),
+              std::string::npos);
+    const std::map<std::string, std::pair<std::string, std::uint64_t>> expected = {
+        {"/novatel/oem7/inspvax", {"novatel_oem7_msgs/msg/INSPVAX", 36}},
+        {"/odom", {"nav_msgs/msg/Odometry", 36}},
+        {"/hesai/pandar", {"sensor_msgs/msg/PointCloud2", 3}},
+        {"/ouster/points", {"sensor_msgs/msg/PointCloud2", 3}}};
+    ASSERT_EQ(reader->topics().size(), expected.size());
+    for (const auto& [topic, type_count] : expected) {
+      const Topic* t = find_topic(*reader, topic);
+      ASSERT_NE(t, nullptr) << topic;
+      EXPECT_EQ(t->type, type_count.first);
+      EXPECT_EQ(t->message_count, type_count.second);
+      const auto refs = reader->messages(topic_index(*reader, topic));
+      ASSERT_EQ(refs.size(), type_count.second);
+      for (const MessageRef& ref : refs) {
+        const Bytes prefix = reader->read_prefix(ref, 64), all = reader->read(ref);
+        EXPECT_GT(all.size(), 64u);
+        EXPECT_EQ(prefix, first_bytes(all, 64));
+      }
+    }
+    // An 800-point Hesai cloud of 48-byte points: its data alone is 38,400 bytes.
+    EXPECT_GT(reader->read(reader->messages(topic_index(*reader, "/hesai/pandar"))[0]).size(), 38400u);
+    EXPECT_EQ(reader->start_time_ns(), 1699999999982000000);
+    EXPECT_EQ(reader->end_time_ns(), 1700000000332000000);
+  }
+}
+
+TEST(Mcap, IndependentWriterCutOffAndCorruptCopies) {
+  const auto cut = open_mcap(kFixtureDir / "mcap_truncated.mcap");  // cut in the middle of the chunk at 46523
+  ASSERT_EQ(cut->warnings().size(), 1u);
+  EXPECT_NE(cut->warnings()[0].find("stops being readable at byte 46523"), std::string::npos) << cut->warnings()[0];
+  const std::map<std::string, std::size_t> counts = {
+      {"/novatel/oem7/inspvax", 23}, {"/odom", 23}, {"/hesai/pandar", 2}, {"/ouster/points", 1}};
+  for (const auto& [topic, count] : counts) {
+    const auto refs = cut->messages(topic_index(*cut, topic));
+    EXPECT_EQ(refs.size(), count) << topic;
+    for (const MessageRef& ref : refs) EXPECT_FALSE(cut->read(ref).empty());
+  }
+  EXPECT_EQ(cut->end_time_ns(), 1700000000203000000);
+  // A byte flipped inside the lz4 chunk at 24136: reading any of its messages names that chunk.
+  const auto corrupt = open_mcap(kFixtureDir / "mcap_corrupt_chunk.mcap");
+  std::size_t failures = 0;
+  for (std::uint32_t t = 0; t < corrupt->topics().size(); ++t) {
+    for (const MessageRef& ref : corrupt->messages(t)) {
+      try {
+        (void)corrupt->read(ref);
+      } catch (const InputError& e) {
+        EXPECT_EQ(e.location(), "byte 24136") << e.what();
+        ++failures;
+      }
+    }
+  }
+  EXPECT_GT(failures, 0u);
+  EXPECT_LT(failures, 78u / 2) << "only one chunk of six is corrupt";
+}
+
 // ---------------------------------------------------------------------------------------------
 // Round trips of the writer
 
@@ -186,7 +253,8 @@ void write_sample(const fs::path& file, Compression compression, std::size_t chu
   writer->close();
 }
 
-/// Every message of every topic read back equals what was written, in order.
+/// Every message of every topic read back equals what was written, in order; prefixes too (read
+/// first, so that they come from a partial decompression rather than the cache).
 void expect_same_messages(const BagReader& reader, const std::vector<Written>& messages, std::size_t expected_count) {
   std::map<std::uint32_t, std::vector<const Written*>> by_topic;
   for (const Written& m : messages) by_topic[m.topic].push_back(&m);
@@ -197,6 +265,7 @@ void expect_same_messages(const BagReader& reader, const std::vector<Written>& m
     for (std::size_t i = 0; i < refs.size(); ++i) {
       ASSERT_EQ(refs[i].topic, t);
       EXPECT_EQ(refs[i].log_time_ns, by_topic[t][i]->t_ns);
+      ASSERT_EQ(reader.read_prefix(refs[i], 24), first_bytes(by_topic[t][i]->data, 24)) << reader.topics()[t].name;
       ASSERT_EQ(reader.read(refs[i]), by_topic[t][i]->data) << reader.topics()[t].name << " #" << i;
     }
     seen += refs.size();
@@ -241,6 +310,31 @@ INSTANTIATE_TEST_SUITE_P(Mcap, McapRoundTrip,
                                   : info.param == Compression::kLz4 ? std::string("Lz4")
                                                                     : std::string("None");
                          });
+
+TEST(Mcap, ParallelReadsShareTheChunkCache) {
+  const fs::path file = temp_dir("threads") / "drive.mcap";
+  const std::vector<Written> messages = sample_messages(9);
+  write_sample(file, Compression::kZstd, 2048, messages);
+  const auto reader = open_mcap(file);
+  std::vector<std::pair<MessageRef, const Bytes*>> all;
+  std::map<std::uint32_t, std::size_t> next;
+  std::map<std::uint32_t, std::vector<MessageRef>> refs;
+  for (std::uint32_t t = 0; t < reader->topics().size(); ++t) refs[t] = reader->messages(t);
+  for (const Written& m : messages) all.emplace_back(refs[m.topic][next[m.topic]++], &m.data);
+  std::atomic<int> mismatches{0};
+  std::vector<std::thread> threads;
+  for (int k = 0; k < 4; ++k) {
+    threads.emplace_back([&, k] {
+      for (std::size_t i = static_cast<std::size_t>(k); i < all.size() * 3; i += 2) {  // overlapping, out of order
+        const auto& [ref, data] = all[(i * 7) % all.size()];
+        if (reader->read(ref) != *data) ++mismatches;
+      }
+    });
+  }
+  for (std::thread& t : threads) t.join();
+  EXPECT_EQ(mismatches.load(), 0);
+  fs::remove_all(file.parent_path());
+}
 
 TEST(Mcap, ProfileFollowsTheEncodings) {
   const fs::path dir = temp_dir("profile");
@@ -375,6 +469,34 @@ TEST(Mcap, MessagesOutsideChunks) {
   fs::remove_all(dir);
 }
 
+TEST(Mcap, SummaryWithoutChunkIndexOrStatistics) {
+  Builder f;
+  f.header();
+  f.schema_and_channel(1, "/a", "cdr");
+  const std::string records = Builder::message(1, 5, "chunked");
+  f.add(Builder::record(0x06, Builder::u64(5) + Builder::u64(5) + Builder::u64(records.size()) + Builder::u32(0) +
+                                  Builder::str("") + Builder::u64(records.size()) + records));
+  f.add(Builder::message(1, 7, "loose"));
+  f.add(Builder::record(0x0F, Builder::u32(0)));
+  const std::size_t summary_start = f.b.size();
+  f.schema_and_channel(1, "/a", "cdr");  // the summary: schema and channel only
+  f.add(Builder::record(0x02, Builder::u64(summary_start) + Builder::u64(0) + Builder::u32(0)));
+  f.b += std::string("\x89MCAP0\r\n", 8);
+  const fs::path dir = temp_dir("noindex");
+  write_raw(dir / "n.mcap", f.b);
+  const auto reader = open_mcap(dir / "n.mcap");
+  EXPECT_EQ(reader->describe(), "MCAP (ros2 profile), uncompressed chunks, indexed");
+  ASSERT_EQ(reader->topics().size(), 1u);
+  EXPECT_EQ(reader->topics()[0].message_count, 2u);
+  const auto refs = reader->messages(0);
+  ASSERT_EQ(refs.size(), 2u);
+  const Bytes a = reader->read(refs[0]), b = reader->read(refs[1]);
+  EXPECT_EQ(std::string(a.begin(), a.end()), "chunked");
+  EXPECT_EQ(std::string(b.begin(), b.end()), "loose");
+  EXPECT_EQ(reader->end_time_ns(), 7);
+  fs::remove_all(dir);
+}
+
 TEST(Mcap, ForeignMessageEncodingIsListedButNotRead) {
   Builder f;
   f.header();
@@ -422,6 +544,27 @@ TEST(Mcap, ChunkCrcMismatchNamesTheChunk) {
     EXPECT_EQ(bytes[chunk], '\x06') << "the offset names the chunk record";
     EXPECT_GT(chunk, at - 4096 - 200);
   }
+  fs::remove_all(dir);
+}
+
+TEST(Mcap, DamagedCloudChunkKeepsTheSmallMessages) {
+  const fs::path dir = temp_dir("ownchunk");
+  const std::vector<Written> messages = sample_messages(8);
+  write_sample(dir / "a.mcap", Compression::kNone, 4096, messages);
+  std::string bytes = read_raw(dir / "a.mcap");
+  const Written& cloud = messages[11];  // a 20 kB message: a chunk of its own
+  ASSERT_EQ(cloud.topic, 0u);
+  const std::size_t at = bytes.find(std::string(cloud.data.begin(), cloud.data.begin() + 64));
+  ASSERT_NE(at, std::string::npos);
+  bytes[at + 1000] = static_cast<char>(bytes[at + 1000] ^ 0x01);
+  write_raw(dir / "a.mcap", bytes);
+  const auto reader = open_mcap(dir / "a.mcap");
+  for (std::uint32_t t = 1; t < reader->topics().size(); ++t) {
+    for (const MessageRef& ref : reader->messages(t)) EXPECT_NO_THROW((void)reader->read(ref));
+  }
+  const auto clouds = reader->messages(0);
+  EXPECT_THROW((void)reader->read(clouds[0]), InputError);
+  EXPECT_NO_THROW((void)reader->read(clouds[1]));
   fs::remove_all(dir);
 }
 

@@ -22,11 +22,15 @@ namespace fs = std::filesystem;
 using Bytes = std::vector<std::uint8_t>;
 
 const fs::path kRealDir = fs::path(INSALIGN_SHARED_DATA_DIR) / "bags" / "ros1";
-constexpr std::int64_t kRealStartNs = 1396293887844784000;  // python3-rosbag: 1396293887.844784
-constexpr std::int64_t kRealEndNs = 1396293909544870000;    // 1396293909.5448701
+// The chunk info's times as python3-rosbag reads them (README: 1396293887.844784, 1396293909.544870).
+constexpr std::int64_t kRealStartNs = 1396293887844783943;
+constexpr std::int64_t kRealEndNs = 1396293909544870199;
 
+// A fresh folder per test.
 fs::path temp_dir() {
-  const fs::path dir = fs::temp_directory_path() / ("insalign_ros1_bag_" + std::to_string(::getpid()));
+  const fs::path dir = fs::temp_directory_path() / ("insalign_ros1_bag_" + std::to_string(::getpid()) + "_" +
+                                                   ::testing::UnitTest::GetInstance()->current_test_info()->name());
+  fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
 }
@@ -102,8 +106,8 @@ TEST(Ros1Bag, RealBagsTopicsTypesCountsAndTimeRange) {
     SCOPED_TRACE(name);
     const auto bag = open_ros1_bag(kRealDir / name);
     expect_real_topics(*bag);
-    EXPECT_NEAR(static_cast<double>(bag->start_time_ns() - kRealStartNs), 0.0, 1000.0);
-    EXPECT_NEAR(static_cast<double>(bag->end_time_ns() - kRealEndNs), 0.0, 1000.0);
+    EXPECT_EQ(bag->start_time_ns(), kRealStartNs);
+    EXPECT_EQ(bag->end_time_ns(), kRealEndNs);
     EXPECT_TRUE(bag->warnings().empty());
   }
   EXPECT_EQ(open_ros1_bag(kRealDir / "example.bag")->describe(), "ROS 1 bag v2.0, uncompressed chunks, indexed");
@@ -203,6 +207,7 @@ void expect_same(const BagReader& bag, const Written& w) {
     EXPECT_EQ(topic.type, w.topics[t].type);
     EXPECT_EQ(topic.md5sum, w.topics[t].md5sum);
     EXPECT_EQ(topic.definition, w.topics[t].definition);
+    EXPECT_EQ(topic.definition_encoding, w.topics[t].definition.empty() ? "" : "ros1msg");  // empty: none stored
     EXPECT_EQ(topic.message_count, w.messages[t].size());
     const std::vector<MessageRef> refs = bag.messages(t);
     ASSERT_EQ(refs.size(), w.messages[t].size()) << topic.name;
@@ -233,6 +238,23 @@ TEST(Ros1Bag, WriteReadRoundTripInEachCompression) {
     EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator()), ++written)
         << "a temporary file was left behind";
   }
+  fs::remove_all(dir);
+}
+
+TEST(Ros1Bag, BagWithTopicsButNoMessages) {
+  const fs::path dir = temp_dir();
+  auto writer = make_ros1_bag_writer(dir / "empty.bag", {});
+  writer->add_topic({"/imu", "sensor_msgs/Imu", MessageEncoding::kRos1, "Header header\n", "ros1msg",
+                     "6a62c6daae103f4ff57a132d6f95cec2", 0});
+  writer->close();
+  const auto bag = open_ros1_bag(dir / "empty.bag");
+  ASSERT_EQ(bag->topics().size(), 1u);
+  EXPECT_EQ(bag->topics()[0].name, "/imu");
+  EXPECT_EQ(bag->topics()[0].definition, "Header header\n");
+  EXPECT_EQ(bag->topics()[0].message_count, 0u);
+  EXPECT_TRUE(bag->messages(0).empty());
+  EXPECT_EQ(bag->describe(), "ROS 1 bag v2.0, no chunks, indexed");
+  EXPECT_EQ(bag->start_time_ns(), 0);
   fs::remove_all(dir);
 }
 

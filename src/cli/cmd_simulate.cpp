@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "cli/commands.hpp"
+#include "cli/sim_bag_export.hpp"
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/extrinsic_json.hpp"
@@ -23,6 +24,7 @@
 #include "io/pcd.hpp"
 #include "io/poses.hpp"
 #include "sim/simulate.hpp"
+#include "sim/traffic.hpp"
 
 namespace insalign::cli {
 namespace {
@@ -34,8 +36,11 @@ struct SimulateOptions {
   std::string scene = "intersection";
   std::string trajectory = "figure8";
   std::string ins_axes = "x-forward";
+  std::string ins_error = "rtk-fixed";
+  double ins_drift_m_per_sqrt_s = -1.0;  ///< < 0: the model's default
   std::string extrinsic;
   std::string pcd_encoding = "binary_compressed";
+  std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
   int frames = 0;
   bool overwrite = false;
   bool quiet = false;
@@ -63,6 +68,10 @@ void apply_options(SimulateOptions& o) {
   sim::SimConfig& c = o.config;
   c.scene = o.scene == "feature-poor" ? sim::SceneKind::kFeaturePoor : sim::SceneKind::kIntersection;
   c.ins_axes = o.ins_axes == "y-forward" ? sim::InsAxes::kYForward : sim::InsAxes::kXForward;
+  if (!sim::parse_ins_error_model(o.ins_error, c.ins_error.model))
+    throw UsageError("--ins-error \"" + o.ins_error + "\" is neither rtk-fixed nor drift");
+  if (o.ins_drift_m_per_sqrt_s >= 0.0)
+    c.ins_error.drift_horizontal_m_per_sqrt_s = c.ins_error.drift_vertical_m_per_sqrt_s = o.ins_drift_m_per_sqrt_s;
   if (o.trajectory == "figure8") {
     c.trajectory = sim::TrajectoryKind::kFigure8;
   } else if (o.trajectory == "straight") {
@@ -99,6 +108,59 @@ const char* trajectory_name(sim::TrajectoryKind k) {
     case sim::TrajectoryKind::kRecorded: return "recorded";
   }
   return "?";
+}
+
+// The INS error's ground truth; only written when it differs from the default RTK-fixed model
+// without events, so a default dataset stays byte for byte what it always was.
+bool has_ins_error_truth(const sim::World& w) {
+  return w.config.ins_error.model != sim::InsErrorModel::kRtkFixed || !w.ins_events.empty();
+}
+
+nlohmann::json ins_error_json(const sim::World& w) {
+  const sim::InsErrorConfig& e = w.config.ins_error;
+  nlohmann::json j;
+  j["model"] = sim::ins_error_model_name(e.model);
+  j["drift_horizontal_m_per_sqrt_s"] = e.drift_horizontal_m_per_sqrt_s;
+  j["drift_vertical_m_per_sqrt_s"] = e.drift_vertical_m_per_sqrt_s;
+  j["drift_heading_deg_per_sqrt_s"] = e.drift_heading_deg_per_sqrt_s;
+  j["events"] = nlohmann::json::array();
+  for (const sim::InsEvent& ev : w.ins_events) {
+    const Vec3 rpy_deg = ev.rpy_error_rad * kDegPerRad;
+    j["events"].push_back({{"kind", sim::ins_event_name(ev.kind)},
+                           {"t_begin_s", ev.t_begin_s},
+                           {"t_end_s", ev.t_end_s},
+                           {"error_m", {ev.error_m.x(), ev.error_m.y(), ev.error_m.z()}},
+                           {"rpy_error_deg", {rpy_deg.x(), rpy_deg.y(), rpy_deg.z()}}});
+  }
+  return j;
+}
+
+const char* mover_kind_name(sim::MoverKind k) {
+  switch (k) {
+    case sim::MoverKind::kCar: return "car";
+    case sim::MoverKind::kVan: return "van";
+    case sim::MoverKind::kCyclist: return "cyclist";
+    case sim::MoverKind::kPedestrian: return "pedestrian";
+  }
+  return "?";
+}
+
+// The movers (written only when traffic was asked for): what, how big, how fast, when.
+nlohmann::json traffic_json(const sim::World& w) {
+  nlohmann::json j;
+  j["vehicles_requested"] = w.config.traffic;
+  j["people_requested"] = w.config.pedestrians;
+  j["movers"] = nlohmann::json::array();
+  for (const sim::Mover& m : w.traffic->movers) {
+    const Vec3 size = 2.0 * m.half_m;
+    j["movers"].push_back({{"kind", mover_kind_name(m.kind)},
+                           {"size_m", {size.x(), size.y(), size.z()}},
+                           {"speed_mps", m.speed_mps},
+                           {"t_begin_s", m.t_start_s},
+                           {"t_end_s", m.t_end_s()},
+                           {"route_length_m", m.route_s_m.back()}});
+  }
+  return j;
 }
 
 nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, std::size_t points) {
@@ -141,6 +203,8 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   cfg["fiducial_noise_m"] = c.fiducial_noise_m;
   cfg["pcd_encoding"] = o.pcd_encoding;
   j["config"] = cfg;
+  if (has_ins_error_truth(w)) j["ins_error"] = ins_error_json(w);
+  if (w.config.traffic > 0 || w.config.pedestrians > 0) j["traffic"] = traffic_json(w);
   return j;
 }
 
@@ -165,6 +229,18 @@ int run_simulate(SimulateOptions& o) {
     fmt::print(stderr, "error: {}\n", e.what());
     return kExitUsage;
   }
+  if (o.format != "opencalib") {  // a recording instead of the PCD folder
+    SimBagOptions bag;
+    bag.format = *parse_bag_format(o.format);
+    bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
+    bag.ins_message = *parse_ins_message(o.ins_message);
+    bag.ground_truth = ground_truth_json(o, world, 0);
+    const auto print = [](std::size_t d, std::size_t n) { fmt::print(stderr, "\r  frames {}/{}{}", d, n, d == n ? "\n" : ""); };
+    const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
+    fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
+               r.bag.string(), r.ins_frame);
+    return kExitOk;
+  }
   const fs::path out = o.out, lidar_dir = out / "lidar";
   io::ensure_writable_dir(lidar_dir);
   // Stale frames from an earlier run would silently join this dataset.
@@ -187,6 +263,10 @@ int run_simulate(SimulateOptions& o) {
   if (!o.quiet)
     fmt::print(stderr, "simulating {} frames ({}, {}, {}), writing to {}\n", n, world.lidar.name,
                scene_name(o.config.scene), trajectory_name(o.config.trajectory), out.string());
+  const std::size_t movers = world.traffic ? world.traffic->movers.size() : 0;
+  const int wanted = o.config.traffic + o.config.pedestrians;
+  if (!o.quiet && wanted > 0)
+    fmt::print(stderr, "traffic: {} of {} movers found room in the lanes and sidewalks\n", movers, wanted);
   std::vector<double> t_end(n);
   std::vector<std::string> names(n);
   std::atomic<std::size_t> done{0}, points{0};
@@ -274,8 +354,32 @@ Command make_simulate_command() {
     sub->add_option("--ins-axes", o->ins_axes, "INS body axes: x-forward (REP-103) | y-forward (NovAtel)")
         ->check(CLI::IsMember({"x-forward", "y-forward"}))
         ->capture_default_str();
-    sub->add_option("--ins-noise-scale", c.ins_noise_scale, "INS noise relative to a NovAtel-class unit (0 = perfect)")
+    sub->add_option("--ins-noise-scale", c.ins_noise_scale,
+                    "INS white noise (1 cm, 0.01/0.01/0.03 deg) and RTK-fixed bounded error, relative to a NovAtel-class unit "
+                    "(0 = perfect)")
         ->check(CLI::Range(0.0, 1000.0))
+        ->capture_default_str();
+    sub->add_option("--ins-error", o->ins_error,
+                    "INS slow error: rtk-fixed (bounded: 1 cm horizontal, 1.5 cm vertical, 30 s Gauss-Markov) | drift (random "
+                    "walk from zero at the start: 5 mm/sqrt(s) per axis, heading 0.002 deg/sqrt(s))")
+        ->check(CLI::IsMember({"rtk-fixed", "drift"}))
+        ->capture_default_str();
+    sub->add_option("--ins-drift-m-per-sqrt-s", o->ins_drift_m_per_sqrt_s, "drift model: position random walk per axis (default 0.005)")
+        ->check(CLI::Range(0.0, 1.0));
+    sub->add_option("--ins-heading-drift-deg-per-sqrt-s", c.ins_error.drift_heading_deg_per_sqrt_s, "drift model: heading random walk")
+        ->check(CLI::Range(0.0, 1.0))
+        ->capture_default_str();
+    sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
+                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float")
+        ->check(CLI::Range(0, 100))
+        ->capture_default_str();
+    sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
+        ->check(CLI::Range(0, 100))
+        ->capture_default_str();
+    sub->add_option("--ins-outages", c.ins_error.outages,
+                    "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
+                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only")
+        ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();
     sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
@@ -286,6 +390,24 @@ Command make_simulate_command() {
         ->check(CLI::Range(0.0, 100.0))
         ->capture_default_str();
     sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+    sub->add_option("--traffic", c.traffic,
+                    "moving cars and vans (15-40 km/h in the lanes beside the path, keeping right, both directions)")
+        ->check(CLI::Range(0, 500))
+        ->capture_default_str();
+    sub->add_option("--pedestrians", c.pedestrians,
+                    "moving people: 30% cyclists (3-6 m/s, bike lanes), the others walking or jogging (1-3.5 m/s) along "
+                    "the sidewalks or crossing")
+        ->check(CLI::Range(0, 500))
+        ->capture_default_str();
+    sub->add_option("--format", o->format, "opencalib (PCD folder and pose files) | ros1 | mcap | db3 (a recording)")
+        ->check(CLI::IsMember({"opencalib", "ros1", "mcap", "db3"}))
+        ->capture_default_str();
+    sub->add_option("--lidar-convention", o->lidar_convention, "recordings: per-point time as hesai | velodyne | ouster | none")
+        ->check(CLI::IsMember({"hesai", "velodyne", "ouster", "none"}))
+        ->capture_default_str();
+    sub->add_option("--ins-message", o->ins_message, "recordings: inspva (INSPVA + INSPVAX) | navsatfix-imu | odometry | tf")
+        ->check(CLI::IsMember({"inspva", "navsatfix-imu", "odometry", "tf"}))
+        ->capture_default_str();
     sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
         ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))
         ->capture_default_str();

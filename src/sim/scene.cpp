@@ -37,6 +37,33 @@ Aabb bounds(const Sphere& s) {
   return {s.center_m - Vec3::Constant(s.radius_m), s.center_m + Vec3::Constant(s.radius_m)};
 }
 
+bool hit_sphere(const Sphere& sp, const Vec3& o, const Vec3& d, double t_max, double& t_out, Vec3& n_out) {
+  const Vec3 p = o - sp.center_m;
+  const double b = p.dot(d);
+  const double c = p.squaredNorm() - sp.radius_m * sp.radius_m;
+  const double disc = b * b - c;
+  if (disc < 0.0) return false;
+  const double t = -b - std::sqrt(disc);
+  if (t <= 1e-6 || t > t_max) return false;
+  n_out = (p + t * d) / sp.radius_m;
+  t_out = t;
+  return true;
+}
+
+// Slab test against a float AABB; returns the entry distance or +inf.
+inline float aabb_entry(const Scene::Node& n, const Eigen::Vector3f& o, const Eigen::Vector3f& inv_d, float t_max) {
+  float t0 = 0.0f, t1 = t_max;
+  for (int a = 0; a < 3; ++a) {
+    float ta = (n.lo[a] - o[a]) * inv_d[a], tb = (n.hi[a] - o[a]) * inv_d[a];
+    if (ta > tb) std::swap(ta, tb);
+    t0 = std::max(t0, ta);
+    t1 = std::min(t1, tb);
+  }
+  return t0 <= t1 ? t0 : std::numeric_limits<float>::infinity();
+}
+
+}  // namespace
+
 // Ray against an upright yawed box: slab test in the box frame.
 bool hit_box(const Box& b, const Vec3& o, const Vec3& d, double t_max, double& t_out, Vec3& n_out) {
   const double c = std::cos(b.yaw_rad), s = std::sin(b.yaw_rad);
@@ -90,33 +117,6 @@ bool hit_cylinder(const Cylinder& cy, const Vec3& o, const Vec3& d, double t_max
   t_out = t;
   return true;
 }
-
-bool hit_sphere(const Sphere& sp, const Vec3& o, const Vec3& d, double t_max, double& t_out, Vec3& n_out) {
-  const Vec3 p = o - sp.center_m;
-  const double b = p.dot(d);
-  const double c = p.squaredNorm() - sp.radius_m * sp.radius_m;
-  const double disc = b * b - c;
-  if (disc < 0.0) return false;
-  const double t = -b - std::sqrt(disc);
-  if (t <= 1e-6 || t > t_max) return false;
-  n_out = (p + t * d) / sp.radius_m;
-  t_out = t;
-  return true;
-}
-
-// Slab test against a float AABB; returns the entry distance or +inf.
-inline float aabb_entry(const Scene::Node& n, const Eigen::Vector3f& o, const Eigen::Vector3f& inv_d, float t_max) {
-  float t0 = 0.0f, t1 = t_max;
-  for (int a = 0; a < 3; ++a) {
-    float ta = (n.lo[a] - o[a]) * inv_d[a], tb = (n.hi[a] - o[a]) * inv_d[a];
-    if (ta > tb) std::swap(ta, tb);
-    t0 = std::max(t0, ta);
-    t1 = std::min(t1, tb);
-  }
-  return t0 <= t1 ? t0 : std::numeric_limits<float>::infinity();
-}
-
-}  // namespace
 
 void Scene::finalize() {
   // BVH over all primitives: median split on the widest centroid axis, leaves of up to 4.

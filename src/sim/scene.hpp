@@ -85,6 +85,12 @@ struct Scene {
   std::vector<std::vector<std::uint32_t>> marking_cells;
 };
 
+/// One ray (dir unit) against one primitive: the entry distance in (1e-6, t_max] and the outward
+/// unit normal there. A ray starting inside a box does not hit it (a sensor never sits inside
+/// geometry); cylinders have no caps.
+bool hit_box(const Box& box, const Vec3& origin, const Vec3& dir, double t_max, double& t_out, Vec3& n_out);
+bool hit_cylinder(const Cylinder& cylinder, const Vec3& origin, const Vec3& dir, double t_max, double& t_out, Vec3& n_out);
+
 /// A seeded scene around the driven path (world xy samples): nothing closer to the path than the
 /// corridor half-width, buildings not axis-aligned, clutter and markings. Scene kind per config.
 Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& path_xy, const GroundPlane& ground);

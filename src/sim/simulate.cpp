@@ -14,6 +14,7 @@
 #include "sim/random.hpp"
 #include "sim/scene.hpp"
 #include "sim/trajectory.hpp"
+#include "sim/traffic.hpp"
 
 namespace insalign::sim {
 namespace {
@@ -22,16 +23,13 @@ constexpr double kPi = std::numbers::pi;
 /// LiDAR clock of the start of the motion (INS clock: the same number); frames end 1/rate later.
 constexpr double kEpochS = 1700000000.0;
 constexpr double kTruthRateHz = 200.0;
-// NovAtel-class INS noise at scale 1 (1 sigma).
+// NovAtel-class INS white noise at scale 1 (1 sigma); the slow errors are in ins_error.cpp.
 constexpr double kPosWhiteM = 0.01;
-// RTK-fixed GNSS/INS position error is bounded, not a random walk: a first-order Gauss-Markov
-// process per axis, stationary from the first sample (NovAtel RTK: ~1 cm + 1 ppm horizontal RMS,
-// vertical about 1.5 times worse), decorrelating over tens of seconds as satellites and multipath
-// change. Its mean over a drive is what no LiDAR data can reveal: it sets the floor of the
-// fiducial z accuracy (README, stage 3).
-constexpr double kPosDriftSigmaHorizontalM = 0.01;
-constexpr double kPosDriftSigmaVerticalM = 0.015;
-constexpr double kPosDriftCorrelationS = 30.0;
+// What the INS states for its normal (RTK fixed) solution at scale 1, per axis: the white noise
+// and the bounded error together (sqrt(1^2 + 1^2) cm horizontal, sqrt(1^2 + 1.5^2) cm vertical).
+constexpr double kStatedHorizontalM = 0.0141;
+constexpr double kStatedVerticalM = 0.018;
+constexpr double kStatedFloorM = 0.005;  // no INS claims to be exact
 constexpr double kRollPitchWhiteDeg = 0.01;
 constexpr double kYawWhiteDeg = 0.03;
 constexpr std::uint64_t kStreamFramePoses = 1;
@@ -56,6 +54,9 @@ void validate(const SimConfig& c) {
   if (c.trajectory == TrajectoryKind::kRecorded && c.recorded_trajectory.size() < 2)
     fail("a recorded trajectory needs at least 2 poses");
   if (c.T_ins_lidar && !c.T_ins_lidar->matrix().allFinite()) fail("given extrinsic is not finite");
+  validate_ins_error(c.ins_error);
+  if (c.traffic < 0 || c.traffic > 500 || c.pedestrians < 0 || c.pedestrians > 500)
+    fail("traffic and pedestrian counts must be in [0, 500]");
 }
 
 // Random roof mount, physically placed: INS near the rear axle, LiDAR on the roof.
@@ -101,6 +102,41 @@ std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, co
   return out;
 }
 
+// Movers around the driven path, avoiding the ego's body (x from -1.1 to 3.6 m of the INS, the
+// INS near the rear axle) over the whole drive.
+Traffic build_traffic(const World& w, const std::vector<Vec2>& path_xy) {
+  TrafficRequest request;
+  request.vehicles = w.config.traffic;
+  request.people = w.config.pedestrians;
+  request.path_xy = path_xy;
+  request.t_begin_s = kEpochS;
+  request.t_end_s = w.frame_times_s.back() + std::abs(w.config.time_offset_s);
+  request.seed = hash_counters(w.config.seed, 0x7AFF1C);
+  EgoFootprint ego;
+  const Iso3 T_ins_vehicle = w.T_vehicle_ins.inverse();
+  ego.pose = [&w, T_ins_vehicle](double t_s) {
+    const double t = std::clamp(t_s, w.poses_true.t_begin(), w.poses_true.t_end());
+    const Iso3 T_world_vehicle = w.poses_true.T_world_ins(t) * T_ins_vehicle;
+    const Vec3 c = T_world_vehicle * Vec3(1.25, 0.0, 0.0);
+    const Vec3 x = T_world_vehicle.linear().col(0);
+    return MoverPose{c.head<2>(), std::atan2(x.y(), x.x())};
+  };
+  return make_traffic(request, *w.scene, ego);
+}
+
+// The INS error of the configured model and its events, each from its own random stream.
+void build_ins_error(World& w) {
+  const SimConfig& c = w.config;
+  if (c.ins_error.model == InsErrorModel::kRtkFixed) {
+    w.drift = make_rtk_fixed_drift(c.ins_noise_scale, w.poses_true.t_begin(), w.poses_true.t_end(),
+                                   hash_counters(c.seed, 0xD21F7));
+  } else {
+    // Exact at the start of the first sweep, walking from there.
+    w.walk = make_walk(c.ins_error, kEpochS, w.poses_true.t_end(), hash_counters(c.seed, 0x3A1C));
+  }
+  w.ins_events = place_ins_events(c.ins_error, kEpochS, w.frame_times_s.back(), hash_counters(c.seed, 0xE7E47));
+}
+
 }  // namespace
 
 LidarModel lidar_model(const std::string& name) {
@@ -130,16 +166,6 @@ LidarModel lidar_model(const std::string& name) {
 }
 
 std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64", "vlp16"}; }
-
-Vec3 InsDrift::at(double t_s) const {
-  if (knots_m.empty()) return Vec3::Zero();
-  const double f = (t_s - t0_s) / knot_spacing_s;
-  if (f <= 0.0) return knots_m.front();
-  const std::size_t i = static_cast<std::size_t>(f);
-  if (i + 1 >= knots_m.size()) return knots_m.back();
-  const double w = f - static_cast<double>(i);
-  return (1.0 - w) * knots_m[i] + w * knots_m[i + 1];
-}
 
 std::string frame_name(double t_s) {
   char buf[64];
@@ -172,6 +198,16 @@ World build_world(const SimConfig& config) {
                              : static_cast<std::size_t>(std::floor(trajectory.duration_s() * config.frame_rate_hz));
   n_frames = std::max<std::size_t>(1, n_frames);
   for (std::size_t k = 0; k < n_frames; ++k) w.frame_times_s.push_back(kEpochS + (k + 1) * period_s);
+  SimLidar primary;
+  primary.model = w.lidar;
+  primary.T_ins_lidar_true = w.T_ins_lidar_true;
+  primary.T_ins_lidar_init = w.T_ins_lidar_init;
+  primary.time_offset_s = config.time_offset_s;
+  primary.frame_rate_hz = config.frame_rate_hz;
+  primary.start_azimuth_rad = kPi;  // starting behind the sensor
+  primary.noise_seed = config.seed;
+  primary.frame_times_s = w.frame_times_s;
+  w.lidars = {primary};
 
   // Truth on the INS clock, dense, covering every sweep through the offset with a margin.
   const double pad_s = 1.0 + std::abs(config.time_offset_s);
@@ -187,125 +223,73 @@ World build_world(const SimConfig& config) {
   w.poses_true = PoseStream(std::move(truth));
 
   w.scene = std::make_shared<const Scene>(make_scene(config.scene, config.seed, trajectory.loop_xy(), trajectory.ground()));
+  w.T_vehicle_ins = T_vehicle_ins;
+  w.traffic = std::make_shared<const Traffic>(build_traffic(w, trajectory.loop_xy()));
 
   Rng fid_rng(hash_counters(config.seed, 0xF1D));
   w.fiducials = place_fiducials(config, *w.scene, trajectory.loop_xy(), fid_rng);
 
-  Rng drift_rng(hash_counters(config.seed, 0xD21F7));
-  w.drift.t0_s = w.poses_true.t_begin();
-  w.drift.knot_spacing_s = 1.0;
-  const Vec3 sigma = config.ins_noise_scale *
-                     Vec3(kPosDriftSigmaHorizontalM, kPosDriftSigmaHorizontalM, kPosDriftSigmaVerticalM);
-  const double a = std::exp(-w.drift.knot_spacing_s / kPosDriftCorrelationS);
-  const double innovation = std::sqrt(1.0 - a * a);
-  auto draw = [&]() {  // one statement per axis: argument evaluation order is unspecified
-    Vec3 v;
-    for (int axis = 0; axis < 3; ++axis) v[axis] = drift_rng.normal(sigma[axis]);
-    return v;
-  };
-  Vec3 error = draw();  // stationary from the start: the INS is no more exact at t0 than later
-  for (double t = w.poses_true.t_begin(); t <= w.poses_true.t_end() + 1.0; t += w.drift.knot_spacing_s) {
-    w.drift.knots_m.push_back(error);
-    error = a * error + innovation * draw();
-  }
+  build_ins_error(w);
   return w;
 }
 
-Sweep render_sweep(const World& world, std::size_t k) {
+InsSlowError ins_slow_error(const World& world, double t_ins_s) {
+  InsSlowError e;
+  if (world.config.ins_error.model == InsErrorModel::kRtkFixed) {
+    e.position_m = world.drift.at(t_ins_s);
+  } else {
+    e.position_m = world.walk.position.at(t_ins_s);
+    e.rpy_world_rad.z() = world.walk.heading_at(t_ins_s);
+  }
+  for (const InsEvent& event : world.ins_events) {
+    if (t_ins_s < event.t_begin_s || t_ins_s >= event.t_end_s) continue;
+    e.position_m += event_position_error(event, t_ins_s);
+    e.rpy_world_rad += event_rpy_error_rad(event, t_ins_s);
+  }
+  return e;
+}
+
+InsQuality ins_quality(const World& world, double t_ins_s) {
   const SimConfig& c = world.config;
-  const Scene& scene = *world.scene;
-  const std::size_t n_cols = std::max<std::size_t>(1, static_cast<std::size_t>(std::llround(360.0 / c.azimuth_step_deg)));
-  const std::size_t n_beams = world.lidar.elevation_deg.size();
-  const double period_s = 1.0 / c.frame_rate_hz;
-  const double col_dt_s = period_s / static_cast<double>(n_cols);
-  const double step_rad = 2 * kPi / static_cast<double>(n_cols);
-  const double t_end_nominal = world.frame_times_s.at(k);
-  std::vector<double> cos_el(n_beams), sin_el(n_beams);
-  for (std::size_t b = 0; b < n_beams; ++b) {
-    cos_el[b] = std::cos(world.lidar.elevation_deg[b] * kRadPerDeg);
-    sin_el[b] = std::sin(world.lidar.elevation_deg[b] * kRadPerDeg);
+  double h = c.ins_noise_scale * kStatedHorizontalM, v = c.ins_noise_scale * kStatedVerticalM;
+  if (c.ins_error.model == InsErrorModel::kDrift) {
+    // White noise plus the walk's 1 sigma so far: an honest INS knows it is drifting.
+    const double dt = std::max(0.0, t_ins_s - kEpochS);
+    const double white = c.ins_noise_scale * kPosWhiteM;
+    h = std::sqrt(white * white + std::pow(c.ins_error.drift_horizontal_m_per_sqrt_s, 2) * dt);
+    v = std::sqrt(white * white + std::pow(c.ins_error.drift_vertical_m_per_sqrt_s, 2) * dt);
   }
-  // One slot per ray, compacted afterwards in firing order: deterministic whatever the threads do.
-  std::vector<Vec3f> slot_p(n_cols * n_beams);
-  std::vector<float> slot_i(n_cols * n_beams);
-  std::vector<std::uint8_t> slot_ok(n_cols * n_beams, 0);
-  const double max_cast_m = c.max_range_m + 5.0 * c.range_noise_m + 0.1;
+  return event_quality(world.ins_events, t_ins_s, std::max(kStatedFloorM, h), std::max(kStatedFloorM, v));
+}
 
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_cols, 32), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t j = r.begin(); j < r.end(); ++j) {
-      const double t_lidar = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
-      // The sensor's TRUE pose at this column's instant (INS clock = LiDAR clock + offset).
-      const Iso3 T_world_lidar = world.poses_true.T_world_ins(t_lidar + c.time_offset_s) * world.T_ins_lidar_true;
-      const Mat3 R = T_world_lidar.linear();
-      const Vec3 origin = T_world_lidar.translation();
-      // Clockwise spin seen from above, starting behind the sensor.
-      const double az = kPi - static_cast<double>(j) * step_rad;
-      const double ca = std::cos(az), sa = std::sin(az);
-      for (std::size_t b = 0; b < n_beams; ++b) {
-        const std::uint64_t key = hash_counters(c.seed, k, j, b);
-        if (c.dropout_prob > 0.0 && unit_from_bits(splitmix64(key ^ 1)) < c.dropout_prob) continue;
-        const Vec3 d_lidar(cos_el[b] * ca, cos_el[b] * sa, sin_el[b]);
-        const Vec3 d_world = R * d_lidar;
-        const auto hit = scene.cast(origin, d_world, max_cast_m);
-        if (!hit) continue;
-        const double range = hit->range_m + c.range_noise_m * normal_from_bits(splitmix64(key ^ 2), splitmix64(key ^ 3));
-        if (range <= 0.3 || range > c.max_range_m) continue;
-        const double cos_inc = std::abs(hit->normal.dot(d_world));
-        const double intensity = 255.0 * hit->reflectivity * (0.25 + 0.75 * cos_inc) +
-                                 2.0 * normal_from_bits(splitmix64(key ^ 4), splitmix64(key ^ 5));
-        const std::size_t s = j * n_beams + b;
-        slot_p[s] = (d_lidar * range).cast<float>();
-        slot_i[s] = static_cast<float>(std::clamp(intensity, 0.0, 255.0));
-        slot_ok[s] = 1;
-      }
-    }
-  });
-
-  Sweep sweep;
-  std::size_t n = 0;
-  std::size_t last_col = n_cols - 1;
-  bool any = false;
-  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
-    if (!slot_ok[s]) continue;
-    ++n;
-    last_col = s / n_beams;
-    any = true;
-  }
-  // Frame time = the latest point time (normally the last column).
-  const double t_end = t_end_nominal - static_cast<double>(n_cols - 1 - (any ? last_col : n_cols - 1)) * col_dt_s;
-  sweep.t_end_s = t_end;
-  sweep.name = frame_name(t_end);
-  sweep.p_lidar.reserve(n);
-  sweep.dt_s.reserve(n);
-  sweep.intensity.reserve(n);
-  sweep.ring.reserve(n);
-  for (std::size_t s = 0; s < slot_ok.size(); ++s) {
-    if (!slot_ok[s]) continue;
-    const std::size_t j = s / n_beams;
-    const double t = t_end_nominal - static_cast<double>(n_cols - 1 - j) * col_dt_s;
-    sweep.p_lidar.push_back(slot_p[s]);
-    sweep.dt_s.push_back(static_cast<float>(t - t_end));
-    sweep.intensity.push_back(slot_i[s]);
-    sweep.ring.push_back(static_cast<std::uint16_t>(s % n_beams));
-  }
-  return sweep;
+std::vector<InsQuality> ins_quality_series(const World& world, const std::vector<double>& t_ins_s) {
+  std::vector<InsQuality> out;
+  out.reserve(t_ins_s.size());
+  for (double t : t_ins_s) out.push_back(ins_quality(world, t));
+  return out;
 }
 
 std::vector<StampedPose> reported_poses(const World& world, const std::vector<double>& t_ins_s, std::uint64_t stream) {
   const double scale = world.config.ins_noise_scale;
+  const bool rtk_fixed = world.config.ins_error.model == InsErrorModel::kRtkFixed;
   std::vector<StampedPose> out;
   out.reserve(t_ins_s.size());
   for (std::size_t i = 0; i < t_ins_s.size(); ++i) {
     const double t = t_ins_s[i];
     Iso3 T = world.poses_true.T_world_ins(t);
+    // RTK fixed at scale 0 is exact (the bounded error scales with the white noise).
+    const InsSlowError e = rtk_fixed && scale <= 0.0 && world.ins_events.empty() ? InsSlowError{} : ins_slow_error(world, t);
     if (scale > 0.0) {
       const std::uint64_t key = hash_counters(world.config.seed, 0xA11 + stream, i);
       double g[6];
       for (int q = 0; q < 6; ++q) g[q] = normal_from_bits(splitmix64(key ^ (2 * q + 1)), splitmix64(key ^ (2 * q + 2)));
-      T.translation() += world.drift.at(t) + scale * kPosWhiteM * Vec3(g[0], g[1], g[2]);
+      T.translation() += e.position_m + scale * kPosWhiteM * Vec3(g[0], g[1], g[2]);
       const Vec3 rpy_deg = scale * Vec3(kRollPitchWhiteDeg * g[3], kRollPitchWhiteDeg * g[4], kYawWhiteDeg * g[5]);
       T.linear() = T.linear() * rotation_from_rpy(rpy_deg * kRadPerDeg);
+    } else if (!e.position_m.isZero(0.0)) {
+      T.translation() += e.position_m;
     }
+    if (!e.rpy_world_rad.isZero(0.0)) T.linear() = rotation_from_rpy(e.rpy_world_rad) * T.linear();
     out.push_back({t, T});
   }
   return out;
@@ -333,8 +317,9 @@ SimDataset simulate(const SimConfig& config, const std::function<void(std::size_
   out.sweeps.resize(n);
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
+  out.hit_mover.resize(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-    out.sweeps[k] = render_sweep(world, k);
+    out.sweeps[k] = render_sweep(world, k, &out.hit_mover[k]);
     const std::size_t d = ++done;
     if (progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -350,6 +335,8 @@ SimDataset simulate(const SimConfig& config, const std::function<void(std::size_
   out.time_offset_s = config.time_offset_s;
   out.fiducials = world.fiducials;
   out.ins_height_m = world.ins_height_m;
+  out.ins_events = world.ins_events;
+  out.ins_quality = ins_quality_series(world, t_end);
   return out;
 }
 
@@ -359,6 +346,7 @@ Dataset to_dataset(const SimDataset& sim) {
   d.poses = sim.poses;
   d.fiducials = sim.fiducials;
   d.T_ins_lidar_init = sim.T_ins_lidar_init;
+  d.ins_quality = sim.ins_quality;
   return d;
 }
 

@@ -14,6 +14,7 @@
 #include "core/geometry.hpp"
 #include "core/pose_stream.hpp"
 #include "core/sweep.hpp"
+#include "sim/ins_error.hpp"
 
 namespace insalign::sim {
 
@@ -44,14 +45,22 @@ struct SimConfig {
   InsAxes ins_axes = InsAxes::kXForward;
   /// 1 = NovAtel RTK class: position white ~1 cm plus a slow bounded error (Gauss-Markov, 1 cm
   /// horizontal, 1.5 cm vertical, 30 s correlation); attitude white ~0.01 deg roll/pitch,
-  /// ~0.03 deg yaw. 0 = perfect poses.
+  /// ~0.03 deg yaw. 0 = perfect poses. Scales the white noise of every INS error model and the
+  /// bounded error of kRtkFixed; the drift rates and events of ins_error are absolute.
   double ins_noise_scale = 1.0;
+  InsErrorConfig ins_error;         ///< slow error model and events (ins_error.hpp)
   double time_offset_s = 0.0;       ///< t_ins = t_lidar + offset
   std::optional<Iso3> T_ins_lidar;  ///< unset: random roof mount (any yaw, roll/pitch within 10 deg)
   double init_rot_err_deg = 20.0;   ///< rotation error of the written initial guess (random axis)
   double init_trans_err_m = 0.5;    ///< translation error of the initial guess (random direction)
   int n_fiducials = 6;              ///< surveyed ground points
   double fiducial_noise_m = 0.005;  ///< survey noise sigma per axis
+  /// Moving vehicles (cars and vans, 15-40 km/h in the lanes 2.2 m either side of the driven
+  /// path, keeping right, both directions, straight on and through the turns) and people
+  /// (30 % cyclists at 3-6 m/s in the bike lanes at 3.8 m, the others walking at 1-1.8 m/s, some
+  /// jogging, along the sidewalks at 5.3 m or crossing). traffic.hpp.
+  int traffic = 0;
+  int pedestrians = 0;
 };
 
 /// A spinning LiDAR: beam elevations (ring r = index r) and its name.
@@ -63,18 +72,27 @@ struct LidarModel {
 LidarModel lidar_model(const std::string& name);
 std::vector<std::string> lidar_model_names();
 
-struct Scene;  // primitives and their BVH (scene.hpp)
+struct Scene;    // primitives and their BVH (scene.hpp)
+struct Traffic;  // moving vehicles and people (traffic.hpp)
 
-/// Slow INS position error (bounded, correlated in time) sampled at knots, interpolated linearly.
-struct InsDrift {
-  double t0_s = 0.0, knot_spacing_s = 1.0;
-  std::vector<Vec3> knots_m;
-  Vec3 at(double t_s) const;
+/// One simulated LiDAR of the vehicle: model, true mount, its own clock and spin.
+struct SimLidar {
+  std::string name = "lidar";       ///< a rig LiDAR's folder name
+  LidarModel model;
+  Iso3 T_ins_lidar_true = Iso3::Identity();
+  Iso3 T_ins_lidar_init = Iso3::Identity();
+  double time_offset_s = 0.0;       ///< its clock: t_ins = t_lidar + offset
+  double frame_rate_hz = 10.0;
+  double start_azimuth_rad = 0.0;   ///< spinning: azimuth of a sweep's first column (clockwise spin)
+  std::uint64_t noise_seed = 1;     ///< per-ray noise and dropout
+  std::vector<double> frame_times_s;  ///< nominal frame (sweep end) times, its clock
 };
 
 /// Everything that does not change from frame to frame. Built once; render_sweep is thread-safe.
+/// `lidar`, `T_ins_lidar_true`, `T_ins_lidar_init` and `frame_times_s` are those of lidars[0].
 struct World {
   SimConfig config;
+  std::vector<SimLidar> lidars;      ///< at least one
   LidarModel lidar;
   std::shared_ptr<const Scene> scene;
   PoseStream poses_true;             ///< true T_world_ins, INS clock, dense (200 Hz)
@@ -83,16 +101,36 @@ struct World {
   std::vector<double> frame_times_s; ///< nominal frame (sweep end) times, LiDAR clock
   std::vector<Fiducial> fiducials;   ///< surveyed (noisy) world points
   double ins_height_m = 0.0;         ///< INS origin height above the ground (mean for kRecorded)
-  InsDrift drift;
+  InsDrift drift;                    ///< kRtkFixed: the bounded position error (empty otherwise)
+  InsWalk walk;                      ///< kDrift: the random walk (empty otherwise)
+  std::vector<InsEvent> ins_events;  ///< ground truth of the INS events, time order
+  Iso3 T_vehicle_ins = Iso3::Identity();   ///< INS axes in the vehicle frame (x forward, z up)
+  std::shared_ptr<const Traffic> traffic;  ///< movers (none unless config.traffic/pedestrians)
   std::size_t frame_count() const { return frame_times_s.size(); }
 };
 
 /// Builds scene, trajectory, extrinsic and fiducials. Throws std::invalid_argument on a bad config.
 World build_world(const SimConfig& config);
 
-/// Frame k: one revolution ending at frame_times_s[k], each column measured from the sensor's true
-/// pose at its own instant; t_end_s = the latest point time; name = frame_name(t_end_s).
-Sweep render_sweep(const World& world, std::size_t k);
+/// Frame k of lidars[0]: one revolution ending at frame_times_s[k], each column measured from the
+/// sensor's true pose, and the movers where they are, at its own instant; t_end_s = the latest
+/// point time; name = frame_name(t_end_s). hit_mover (optional): per point, 1 if it lies on a mover.
+Sweep render_sweep(const World& world, std::size_t k, std::vector<std::uint8_t>* hit_mover = nullptr);
+/// The same for any LiDAR of the world.
+Sweep render_lidar_sweep(const World& world, std::size_t lidar, std::size_t k,
+                         std::vector<std::uint8_t>* hit_mover = nullptr);
+
+/// The INS's true slow error at an INS time (model plus events, no white noise): reported
+/// position = true + position_m (+ white); reported rotation = Rz Ry Rx(rpy_world_rad) * true.
+struct InsSlowError {
+  Vec3 position_m = Vec3::Zero();
+  Vec3 rpy_world_rad = Vec3::Zero();
+};
+InsSlowError ins_slow_error(const World& world, double t_ins_s);
+/// What the INS states about itself at an INS time (solution type, 1-sigma stddev per horizontal
+/// axis and vertical): see event_quality in ins_error.hpp.
+InsQuality ins_quality(const World& world, double t_ins_s);
+std::vector<InsQuality> ins_quality_series(const World& world, const std::vector<double>& t_ins_s);
 
 /// What the INS reports at the given INS times: truth plus noise (white per sample, drift shared).
 /// `stream` separates independent white-noise draws (e.g. per-frame file vs 100 Hz file).
@@ -110,12 +148,15 @@ std::string frame_name(double t_s);
 
 struct SimDataset {                 ///< everything in memory (tests); the CLI streams frames instead
   std::vector<Sweep> sweeps;        ///< raw, motion-distorted; t_end_s = LiDAR clock
+  std::vector<std::vector<std::uint8_t>> hit_mover;  ///< per sweep and point: 1 = on a mover
   PoseStream poses;                 ///< reported (noisy) T_world_ins, one per frame, stamped t_end_s (INS clock)
   PoseStream poses_true;            ///< true T_world_ins (dense, for tests)
   Iso3 T_ins_lidar_true = Iso3::Identity(), T_ins_lidar_init = Iso3::Identity();
   double time_offset_s = 0.0;
   std::vector<Fiducial> fiducials;  ///< surveyed (noisy) world points on the ground
   double ins_height_m = 0.0;        ///< true height of the INS origin above the ground plane
+  std::vector<InsEvent> ins_events; ///< ground truth of the INS events
+  std::vector<InsQuality> ins_quality;  ///< what the INS states, one per pose (frame time, INS clock)
 };
 
 SimDataset simulate(const SimConfig& config,

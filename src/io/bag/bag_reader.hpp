@@ -51,6 +51,16 @@ class BagReader {
   /// Throws InputError(file, "byte N", what) for a corrupt or truncated record.
   virtual std::vector<std::uint8_t> read(const MessageRef& ref) const = 0;
 
+  /// The first `max_bytes` bytes of one message (all of it when shorter): enough for header.stamp
+  /// and a PointCloud2's layout without its points. This default reads the whole message; readers
+  /// override it where a prefix is cheaper (a compressed chunk decompressed only as far as
+  /// needed). Thread-safe like read().
+  virtual std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
+    std::vector<std::uint8_t> bytes = read(ref);
+    if (bytes.size() > max_bytes) bytes.resize(max_bytes);
+    return bytes;
+  }
+
   /// "ROS 1 bag v2.0, lz4 chunks", "MCAP (ros2 profile), zstd chunks, indexed", ...
   virtual std::string describe() const = 0;
 

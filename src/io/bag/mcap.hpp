@@ -4,6 +4,8 @@
 // Reading an indexed file touches only the footer and the summary section when opening; the
 // message index records after each chunk are read the first time messages() is asked, and a
 // message's chunk is read, CRC-checked and decompressed by read() (recent chunks are cached).
+// read_prefix() decompresses a chunk only as far as the bytes it returns (a cloud's header.stamp
+// costs its first zstd block, not 3 MB), so it cannot check the chunk's CRC; read() does.
 // A file without a summary (a recording cut off) is streamed from its start up to its last whole
 // record, and a warning says where it stops being readable.
 //
@@ -28,7 +30,8 @@ std::unique_ptr<BagReader> open_mcap(const std::filesystem::path& path);
 
 /// Writes an MCAP file to a temporary name, renamed by close(). Profile "ros1" or "ros2" by the
 /// encodings of the topics added before the first message ("" when they mix); chunks uncompressed,
-/// zstd or lz4, closed once they hold options.chunk_bytes.
+/// zstd or lz4, closed once they hold options.chunk_bytes; a message of chunk_bytes or more gets
+/// a chunk of its own, so that small messages never share a chunk with a point cloud.
 std::unique_ptr<BagWriter> make_mcap_writer(const std::filesystem::path& path, const WriterOptions& options);
 
 /// True when the bytes start with the MCAP magic 0x89 "MCAP0\r\n".

@@ -1,6 +1,7 @@
 // MCAP reader: footer + summary on open (or a streamed scan when there is no summary), message
 // index records on the first messages() call, one chunk pread + decompression per read() miss.
 #include <fcntl.h>
+#include <lz4frame.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zstd.h>
@@ -9,6 +10,7 @@
 #include <array>
 #include <cerrno>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -363,6 +365,53 @@ Bytes decompress_chunk(const ChunkHeader& h, const std::string& file, std::uint6
   return out;
 }
 
+// Incremental zstd or lz4-frame decoding into a bounded output, for the first bytes of a chunk.
+class PrefixDecoder {
+ public:
+  PrefixDecoder(const std::string& compression, const std::string& file, std::uint64_t offset)
+      : zstd_(compression == "zstd"), file_(file), offset_(offset) {
+    if (zstd_) z_ = ZSTD_createDCtx();
+    if (!zstd_ && LZ4F_isError(LZ4F_createDecompressionContext(&l_, LZ4F_VERSION))) l_ = nullptr;
+    if (z_ == nullptr && l_ == nullptr) throw std::bad_alloc();
+  }
+  ~PrefixDecoder() {
+    ZSTD_freeDCtx(z_);
+    LZ4F_freeDecompressionContext(l_);
+  }
+  PrefixDecoder(const PrefixDecoder&) = delete;
+  PrefixDecoder& operator=(const PrefixDecoder&) = delete;
+
+  /// Decodes `piece` (the next compressed bytes) into out[produced..]; returns the new count.
+  std::size_t feed(const Bytes& piece, Bytes& out, std::size_t produced) {
+    for (std::size_t in_pos = 0; in_pos < piece.size() && produced < out.size();) {
+      std::size_t used = piece.size() - in_pos, made = out.size() - produced;
+      if (zstd_) {
+        ZSTD_inBuffer in{piece.data(), piece.size(), in_pos};
+        ZSTD_outBuffer ob{out.data(), out.size(), produced};
+        const std::size_t r = ZSTD_decompressStream(z_, &ob, &in);
+        if (ZSTD_isError(r)) fail(std::string("corrupt zstd chunk: ") + ZSTD_getErrorName(r));
+        used = in.pos - in_pos;
+        made = ob.pos - produced;
+      } else {
+        const std::size_t r = LZ4F_decompress(l_, out.data() + produced, &made, piece.data() + in_pos, &used, nullptr);
+        if (LZ4F_isError(r)) fail(std::string("corrupt lz4 chunk: ") + LZ4F_getErrorName(r));
+      }
+      in_pos += used;
+      produced += made;
+      if (used == 0 && made == 0) break;  // the frame is over
+    }
+    return produced;
+  }
+
+ private:
+  [[noreturn]] void fail(const std::string& what) const { throw InputError(file_, at_byte(offset_), what); }
+  bool zstd_;
+  ZSTD_DCtx* z_ = nullptr;
+  LZ4F_dctx* l_ = nullptr;
+  const std::string& file_;
+  std::uint64_t offset_;
+};
+
 /// Calls on(opcode, content, content_size, record_offset) for each record of a decompressed chunk.
 template <typename OnRecord>
 void for_each_record_in_chunk(const Bytes& records, const std::string& file, std::uint64_t chunk_offset, OnRecord on) {
@@ -425,6 +474,7 @@ class McapReader final : public BagReader {
   const std::vector<Topic>& topics() const override { return topics_; }
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
+  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
   std::string describe() const override;
   const std::vector<std::string>& warnings() const override { return warnings_; }
   std::int64_t start_time_ns() const override { return start_ns_; }
@@ -452,8 +502,14 @@ class McapReader final : public BagReader {
   void read_message_indexes(std::size_t chunk, std::vector<Found>& found) const;
   void scan_chunk(std::size_t chunk, const Bytes& records, std::vector<Found>& found) const;
   void scan_top_level_messages(std::vector<Found>& found) const;
+  std::shared_ptr<const Bytes> add_unindexed_chunk(std::uint64_t offset, std::uint64_t length) const;
   void set_refs(std::vector<Found> found) const;
   std::shared_ptr<const Bytes> chunk_records(std::size_t chunk) const;
+  Bytes chunk_prefix(std::size_t chunk, std::uint64_t want) const;
+  void check_readable(const MessageRef& ref) const;
+  Bytes read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const;
+  Bytes message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset, std::uint32_t topic,
+                     std::uint64_t max_bytes) const;
   Bytes load_chunk(std::size_t chunk) const;
   std::uint32_t topic_of(std::uint16_t channel, std::uint64_t offset) const;
 
@@ -465,7 +521,7 @@ class McapReader final : public BagReader {
   bool indexed_ = false;
   std::map<std::uint16_t, SchemaRecord> schemas_;
   std::map<std::uint16_t, ChannelRecord> channels_;
-  std::vector<ChunkLocation> chunks_;
+  mutable std::vector<ChunkLocation> chunks_;  ///< grows while indexing only if some chunk has no chunk index
   std::optional<Statistics> stats_;
   std::vector<Found> streamed_;  ///< messages found while streaming (no summary)
   std::vector<Topic> topics_;
@@ -669,18 +725,25 @@ bool McapReader::stream_record(std::uint8_t opcode, std::uint64_t offset, std::u
   return true;
 }
 
-void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
+/// Reads a chunk that no chunk index describes, adds it to chunks_; returns its records.
+std::shared_ptr<const Bytes> McapReader::add_unindexed_chunk(std::uint64_t offset, std::uint64_t length) const {
   const Bytes content = file_.read(offset + kRecordHeaderBytes, length, offset);
   const ChunkHeader h = parse_chunk(Cursor(content.data(), content.size(), name(), offset, "chunk"));
   if (!supported_compression(h.compression)) unsupported_compression(name(), offset, h.compression);
   auto records = std::make_shared<const Bytes>(decompress_chunk(h, name(), offset));
-  const std::size_t chunk = chunks_.size();
   ChunkLocation loc;
   loc.offset = offset;
   loc.length = kRecordHeaderBytes + length;
   loc.compression = h.compression;
   loc.uncompressed_size = h.uncompressed_size;
   chunks_.push_back(std::move(loc));
+  cache_.insert(chunks_.size() - 1, records);
+  return records;
+}
+
+void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
+  const std::shared_ptr<const Bytes> records = add_unindexed_chunk(offset, length);
+  const std::size_t chunk = chunks_.size() - 1;
   for_each_record_in_chunk(*records, name(), offset,
                            [&](std::uint8_t op, const std::uint8_t* data, std::size_t size, std::uint64_t inner) {
                              if (op == kSchema) add_schema(data, size, offset);
@@ -689,12 +752,12 @@ void McapReader::stream_chunk(std::uint64_t offset, std::uint64_t length) {
                              const MessageHeader m = parse_message_header(Cursor(data, size, name(), offset, "message"));
                              streamed_.push_back({m.channel, m.log_time_ns, offset, inner, chunk + 1, inner});
                            });
-  cache_.insert(chunk, std::move(records));
 }
 
 /// One topic per channel topic; channels repeating a topic with the same type and encoding
 /// (several publishers) share it.
 void McapReader::build_topics() {
+  std::map<std::tuple<std::string, std::string, std::string>, std::uint32_t> by_key;  // name, type, encoding
   for (const auto& [id, ch] : channels_) {
     const auto schema = schemas_.find(ch.schema_id);
     Topic t;
@@ -706,11 +769,10 @@ void McapReader::build_topics() {
       t.definition_encoding = schema->second.encoding;
     }
     if (const auto md5 = ch.metadata.find("md5sum"); md5 != ch.metadata.end()) t.md5sum = md5->second;
-    std::uint32_t index = static_cast<std::uint32_t>(topics_.size());
-    for (std::uint32_t i = 0; i < topics_.size(); ++i) {
-      if (topics_[i].name == t.name && topics_[i].type == t.type && topic_encoding_[i] == ch.message_encoding) index = i;
-    }
-    if (index == topics_.size()) {
+    const auto [it, is_new] =
+        by_key.try_emplace({t.name, t.type, ch.message_encoding}, static_cast<std::uint32_t>(topics_.size()));
+    const std::uint32_t index = it->second;
+    if (is_new) {
       topics_.push_back(std::move(t));
       topic_encoding_.push_back(ch.message_encoding);
     }
@@ -786,8 +848,11 @@ void McapReader::scan_chunk(std::size_t chunk, const Bytes& records, std::vector
                            });
 }
 
-/// Record headers of the data section (chunks skipped by their length), for unchunked messages.
+/// Record headers of the data section, for messages outside chunks and chunks without an index
+/// (indexed chunks are skipped by their length).
 void McapReader::scan_top_level_messages(std::vector<Found>& found) const {
+  std::set<std::uint64_t> indexed;
+  for (const ChunkLocation& c : chunks_) indexed.insert(c.offset);
   for (std::uint64_t pos = data_start_; pos < data_end_;) {
     const Bytes head = file_.read(pos, std::min<std::uint64_t>(kRecordHeaderBytes, data_end_ - pos), pos);
     Cursor c(head.data(), head.size(), name(), pos, "record");
@@ -799,6 +864,9 @@ void McapReader::scan_top_level_messages(std::vector<Found>& found) const {
       const Bytes m = file_.read(pos + kRecordHeaderBytes, std::min<std::uint64_t>(length, kMessageHeaderBytes), pos);
       const MessageHeader h = parse_message_header(Cursor(m.data(), m.size(), name(), pos, "message"));
       found.push_back({h.channel, h.log_time_ns, pos, 0, 0, pos});
+    } else if (opcode == kChunk && indexed.count(pos) == 0) {
+      const std::shared_ptr<const Bytes> records = add_unindexed_chunk(pos, length);
+      scan_chunk(chunks_.size() - 1, *records, found);
     }
     pos += kRecordHeaderBytes + length;
   }
@@ -836,6 +904,37 @@ Bytes McapReader::load_chunk(std::size_t chunk) const {
   return decompress_chunk(h, name(), c.offset);
 }
 
+/// The first `want` bytes of a chunk's records (fewer if it holds fewer), its compressed data
+/// read and decoded in growing pieces: a cloud's header needs its first block, not the chunk.
+Bytes McapReader::chunk_prefix(std::size_t chunk, std::uint64_t want) const {
+  const ChunkLocation& c = chunks_[chunk];
+  const std::uint64_t header = kRecordHeaderBytes + 8 + 8 + 8 + 4 + 4 + c.compression.size() + 8;
+  const Bytes head = file_.read(c.offset, std::min(header, c.length), c.offset);
+  Cursor h(head.data(), head.size(), name(), c.offset, "chunk");
+  const std::uint8_t opcode = h.u8();
+  const std::uint64_t length = h.u64();
+  (void)h.take(8 + 8 + 8 + 4);  // times, uncompressed_size, crc
+  const std::string compression = h.str();
+  const std::uint64_t records_size = h.u64();
+  if (opcode != kChunk || length != c.length - kRecordHeaderBytes || compression != c.compression ||
+      records_size != c.length - header) {
+    h.fail("the chunk index points here, but this is not the chunk of " + std::to_string(c.length) + " bytes it describes");
+  }
+  want = std::min(want, c.uncompressed_size);
+  const std::uint64_t records_at = c.offset + header;
+  if (compression.empty()) return file_.read(records_at, std::min(want, records_size), c.offset);
+  PrefixDecoder decoder(compression, name(), c.offset);
+  Bytes out(static_cast<std::size_t>(want));
+  std::size_t produced = 0;
+  for (std::uint64_t done = 0, step = 64 * 1024; produced < out.size() && done < records_size; step *= 2) {
+    const Bytes piece = file_.read(records_at + done, std::min(step, records_size - done), c.offset);
+    done += piece.size();
+    produced = decoder.feed(piece, out, produced);
+  }
+  out.resize(produced);
+  return out;
+}
+
 std::shared_ptr<const Bytes> McapReader::chunk_records(std::size_t chunk) const {
   if (auto hit = cache_.find(chunk)) return hit;
   auto records = std::make_shared<const Bytes>(load_chunk(chunk));
@@ -843,43 +942,66 @@ std::shared_ptr<const Bytes> McapReader::chunk_records(std::size_t chunk) const 
   return records;
 }
 
-std::vector<std::uint8_t> McapReader::read(const MessageRef& ref) const {
+void McapReader::check_readable(const MessageRef& ref) const {
   if (ref.topic >= topics_.size()) throw InputError(name(), "", "message reference to a topic this file does not have");
   const std::string& encoding = topic_encoding_[ref.topic];
   if (encoding != "ros1" && encoding != "cdr") {
     throw InputError(name(), "", "topic " + topics_[ref.topic].name + " has message encoding '" + encoding +
                                      "': insalign reads ROS messages only (ros1 or cdr)");
   }
-  std::shared_ptr<const Bytes> chunk;
-  const std::uint8_t* record = nullptr;
-  std::uint64_t available = 0, offset = ref.locator2;
-  Bytes direct;
-  if (ref.locator == 0) {  // a message outside chunks: ref.locator2 is its file offset
-    const Bytes head = file_.read(offset, kRecordHeaderBytes, offset);
-    Cursor c(head.data(), head.size(), name(), offset, "message");
-    (void)c.u8();
-    direct = file_.read(offset, kRecordHeaderBytes + std::min(c.u64(), file_.size()), offset);
-    record = direct.data();
-    available = direct.size();
-  } else {
-    if (ref.locator > chunks_.size()) throw InputError(name(), "", "message reference to a chunk this file does not have");
-    chunk = chunk_records(static_cast<std::size_t>(ref.locator - 1));
-    offset = chunks_[ref.locator - 1].offset;
-    if (ref.locator2 > chunk->size()) throw InputError(name(), at_byte(offset), "message index points past the chunk's end");
-    record = chunk->data() + ref.locator2;
-    available = chunk->size() - ref.locator2;
-  }
+  if (ref.locator > chunks_.size()) throw InputError(name(), "", "message reference to a chunk this file does not have");
+}
+
+/// The first `max_bytes` of the data of the message record at `record`, of which `available`
+/// bytes are at hand (at least enough for those). `offset`: the record or its chunk, for errors.
+Bytes McapReader::message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset,
+                               std::uint32_t topic, std::uint64_t max_bytes) const {
   Cursor c(record, static_cast<std::size_t>(available), name(), offset, "message");
   const std::uint8_t opcode = c.u8();
   const std::uint64_t length = c.u64();
   if (opcode != kMessage) c.fail("a message index points to a record that is not a message (opcode " + std::to_string(opcode) + ")");
-  Cursor m(c.take(length), static_cast<std::size_t>(length), name(), offset, "message");
-  const MessageHeader h = parse_message_header(m);
-  (void)m.take(kMessageHeaderBytes);
-  if (topic_of(h.channel, offset) != ref.topic) c.fail("a message index points to a message of another channel");
-  const std::size_t size = m.remaining();
-  const std::uint8_t* data = m.take(size);
+  if (length < kMessageHeaderBytes) c.fail("message record shorter than a message header");
+  const MessageHeader h = parse_message_header(c);
+  (void)c.take(kMessageHeaderBytes);
+  if (topic_of(h.channel, offset) != topic) c.fail("a message index points to a message of another channel");
+  const std::uint64_t size = std::min(length - kMessageHeaderBytes, max_bytes);
+  const std::uint8_t* data = c.take(size);
   return {data, data + size};
+}
+
+Bytes McapReader::read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const {
+  check_readable(ref);
+  const std::uint64_t offset = ref.locator2;
+  if (ref.locator == 0) {  // a message outside chunks: ref.locator2 is its file offset
+    const Bytes head = file_.read(offset, kRecordHeaderBytes, offset);
+    Cursor c(head.data(), head.size(), name(), offset, "message");
+    (void)c.u8();
+    const std::uint64_t wanted = std::min(c.u64(), kMessageHeaderBytes + max_bytes);
+    const Bytes record = file_.read(offset, kRecordHeaderBytes + std::min(wanted, file_.size()), offset);
+    return message_data(record.data(), record.size(), offset, ref.topic, max_bytes);
+  }
+  const std::size_t chunk = static_cast<std::size_t>(ref.locator - 1);
+  const std::uint64_t chunk_at = chunks_[chunk].offset;
+  if (ref.locator2 >= chunks_[chunk].uncompressed_size) {
+    throw InputError(name(), at_byte(chunk_at), "message index points past the chunk's end");
+  }
+  std::shared_ptr<const Bytes> records = cache_.find(chunk);
+  if (!records && max_bytes < chunks_[chunk].uncompressed_size) {
+    // A prefix: decompress only as far as needed (no CRC check: it covers the whole chunk).
+    const std::uint64_t want = ref.locator2 + kRecordHeaderBytes + kMessageHeaderBytes + max_bytes;
+    records = std::make_shared<const Bytes>(chunk_prefix(chunk, want));
+  }
+  if (!records) records = chunk_records(chunk);
+  if (ref.locator2 > records->size()) throw InputError(name(), at_byte(chunk_at), "message index points past the chunk's end");
+  return message_data(records->data() + ref.locator2, records->size() - ref.locator2, chunk_at, ref.topic, max_bytes);
+}
+
+std::vector<std::uint8_t> McapReader::read(const MessageRef& ref) const {
+  return read_bytes(ref, std::numeric_limits<std::uint64_t>::max() - kMessageHeaderBytes - kRecordHeaderBytes);
+}
+
+std::vector<std::uint8_t> McapReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
+  return read_bytes(ref, max_bytes);
 }
 
 std::string McapReader::describe() const {

@@ -8,6 +8,8 @@
 #include <cstdio>
 #include <cstring>
 #include <map>
+#include <new>
+#include <stdexcept>
 #include <string>
 #include <tuple>
 
@@ -73,13 +75,26 @@ struct ChunkIndexEntry {
 
 const char* compression_name(Compression c) { return c == Compression::kZstd ? "zstd" : c == Compression::kLz4 ? "lz4" : ""; }
 
-Bytes zstd_compress(const Bytes& in) {
-  Bytes out(ZSTD_compressBound(in.size()));
-  const std::size_t n = ZSTD_compress(out.data(), out.size(), in.data(), in.size(), kZstdLevel);
-  if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
-  out.resize(n);
-  return out;
-}
+// One context for the whole file: ZSTD_compress() would allocate one per chunk.
+class ZstdCompressor {
+ public:
+  ZstdCompressor() : ctx_(ZSTD_createCCtx()) {
+    if (ctx_ == nullptr) throw std::bad_alloc();
+  }
+  ~ZstdCompressor() { ZSTD_freeCCtx(ctx_); }
+  ZstdCompressor(const ZstdCompressor&) = delete;
+  ZstdCompressor& operator=(const ZstdCompressor&) = delete;
+  /// Compresses `in` into `out` (its capacity reused from chunk to chunk).
+  void compress(const Bytes& in, Bytes& out) {
+    out.resize(ZSTD_compressBound(in.size()));
+    const std::size_t n = ZSTD_compressCCtx(ctx_, out.data(), out.size(), in.data(), in.size(), kZstdLevel);
+    if (ZSTD_isError(n)) throw std::runtime_error(std::string("zstd compression failed: ") + ZSTD_getErrorName(n));
+    out.resize(n);
+  }
+
+ private:
+  ZSTD_CCtx* ctx_;
+};
 
 class McapWriter final : public BagWriter {
  public:
@@ -121,7 +136,9 @@ class McapWriter final : public BagWriter {
   std::vector<std::uint32_t> sequence_;   ///< per topic
   std::vector<std::uint64_t> counts_;     ///< per topic
 
-  Out chunk_;  ///< the open chunk's records, uncompressed
+  Out chunk_;     ///< the open chunk's records, uncompressed
+  Bytes packed_;  ///< the same, compressed
+  ZstdCompressor zstd_;
   std::map<std::uint16_t, std::vector<std::pair<std::uint64_t, std::uint64_t>>> chunk_index_;  ///< channel -> (t, offset)
   std::uint64_t chunk_start_ns_ = 0, chunk_end_ns_ = 0;
   bool chunk_has_messages_ = false;
@@ -241,6 +258,12 @@ void McapWriter::write(std::uint32_t topic, std::int64_t log_time_ns, const std:
          std::to_string(last_ns_) + " ns)");
   }
   if (!header_written_) write_header();
+  // A message that fills a chunk by itself (a point cloud) gets a chunk of its own: the small
+  // messages around it (INS at 100 Hz) then stay in small chunks, and reading all of them does
+  // not decompress every cloud of the drive.
+  if (chunk_has_messages_ && kRecordHeaderBytes + kMessageHeaderBytes + bytes.size() >= options_.chunk_bytes) {
+    flush_chunk();
+  }
   last_ns_ = log_time_ns;
   const auto t = static_cast<std::uint64_t>(log_time_ns);
   const auto channel = static_cast<std::uint16_t>(topic + 1);
@@ -264,10 +287,9 @@ void McapWriter::write(std::uint32_t topic, std::int64_t log_time_ns, const std:
 
 void McapWriter::flush_chunk() {
   if (chunk_.b.empty()) return;
-  Bytes packed;
-  if (options_.compression == Compression::kZstd) packed = zstd_compress(chunk_.b);
-  if (options_.compression == Compression::kLz4) packed = lz4_frame_compress(chunk_.b.data(), chunk_.b.size());
-  const Bytes& records = options_.compression == Compression::kNone ? chunk_.b : packed;
+  if (options_.compression == Compression::kZstd) zstd_.compress(chunk_.b, packed_);
+  if (options_.compression == Compression::kLz4) packed_ = lz4_frame_compress(chunk_.b.data(), chunk_.b.size());
+  const Bytes& records = options_.compression == Compression::kNone ? chunk_.b : packed_;
   ChunkIndexEntry index;
   index.start_ns = chunk_start_ns_;
   index.end_ns = chunk_end_ns_;

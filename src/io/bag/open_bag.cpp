@@ -51,7 +51,8 @@ std::unique_ptr<BagReader> open_bag_file(const fs::path& path) {
   if (is_ros1_bag(first)) return open_ros1_bag(path);
   if (is_mcap(first)) return open_mcap(path);
   if (is_sqlite3(first)) return open_rosbag2_db3(path);
-  throw InputError(path.string(), "byte 0", "not a ROS 1 bag, MCAP or rosbag2 sqlite3 file (" + printable_start(first) + ")");
+  throw InputError(path.string(), "byte 0",
+                   "not a ROS 1 bag, MCAP or rosbag2 sqlite3 file (" + printable_start(first) + ")");
 }
 
 std::unique_ptr<BagReader> open_bag_folder(const fs::path& folder) {
@@ -86,8 +87,8 @@ class SplitBagReader final : public BagReader {
   };
   struct TopicIndex {
     std::once_flag built;
-    std::vector<MessageRef> inner;     ///< in merged order
-    std::vector<std::uint32_t> part;   ///< the file of each
+    std::vector<MessageRef> inner;    ///< in merged order
+    std::vector<std::uint32_t> part;  ///< the file of each
   };
 
   void merge_topics();
@@ -135,8 +136,8 @@ void SplitBagReader::merge_topics() {
       if (inserted) {
         const auto [named, fresh] = type_of_name.emplace(topic.name, topic.type);
         if (!fresh) {
-          warnings_.push_back("topic " + topic.name + " has type " + topic.type + " in " + parts_[p]->path().filename().string() +
-                              " but " + named->second + " before: kept apart");
+          warnings_.push_back("topic " + topic.name + " has type " + topic.type + " in " +
+                              parts_[p]->path().filename().string() + " but " + named->second + " before: kept apart");
         }
         topics_.push_back(topic);
         topics_.back().message_count = 0;

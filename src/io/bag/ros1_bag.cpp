@@ -55,7 +55,7 @@ std::int64_t ros_time_ns(const std::uint8_t* p) {
 struct Where {
   const std::string* file = nullptr;
   std::uint64_t byte = 0;
-  std::string context;  // e.g. "in the lz4 chunk at byte 4117, at offset 77 of its data: "
+  std::string context;  // e.g. "in the lz4 chunk here, at offset 77 of its uncompressed data: "
   [[noreturn]] void fail(const std::string& problem) const { throw InputError(*file, at_byte(byte), context + problem); }
 };
 
@@ -64,6 +64,13 @@ class CutOff : public InputError {
  public:
   using InputError::InputError;
 };
+
+// An error's problem alone, without its "file:byte N: " prefix (for a warning that says where).
+std::string problem_of(const InputError& e) {
+  const std::string prefix = e.file() + ":" + e.location() + ": ";
+  const std::string what = e.what();
+  return what.rfind(prefix, 0) == 0 ? what.substr(prefix.size()) : what;
+}
 
 // The bag file, read with pread only so that threads never share a file position.
 class BagFile {
@@ -323,7 +330,8 @@ void add_connection(Contents& c, const Record& r, Source& src) {
     topic.name = *topic_name;
     topic.type = *type;
     topic.encoding = MessageEncoding::kRos1;
-    if (const std::string* def = header.find("message_definition")) {
+    // An empty definition counts as none stored, so that decoders fall back to built-in ones.
+    if (const std::string* def = header.find("message_definition"); def != nullptr && !def->empty()) {
       topic.definition = *def;
       topic.definition_encoding = "ros1msg";
     }
@@ -433,6 +441,9 @@ class ChunkCache {
   }
   void insert(std::uint64_t chunk, std::shared_ptr<const Bytes> data) {
     const std::lock_guard lock(mutex_);
+    for (const auto& entry : entries_) {
+      if (entry.first == chunk) return;  // another thread decompressed it meanwhile
+    }
     bytes_ += data->size();
     entries_.emplace_front(chunk, std::move(data));
     while (entries_.size() > 1 && (entries_.size() > kMaxChunks || bytes_ > kMaxBytes)) {
@@ -469,17 +480,20 @@ ChunkInfo chunk_info_from_record(const Record& r, Source& src) {
   return info;
 }
 
-// The index data records behind one chunk: one per connection of its chunk info.
+// The index data records behind one chunk: one per connection of its chunk info, in any order.
 void read_index_data(Contents& c, FileSource& src, std::uint64_t pos, const ChunkInfo& info, std::uint32_t chunk_id) {
   const Chunk& chunk = c.chunks[chunk_id];
-  for (const auto& [connection, count] : info.counts) {
+  std::unordered_map<std::uint32_t, std::uint32_t> expected(info.counts.begin(), info.counts.end());
+  for (std::size_t k = 0; k < info.counts.size(); ++k) {
     const Record r = expect_record(src, pos, ros1::kOpIndexData, "behind the chunk at byte " + std::to_string(chunk.pos));
     if (r.u32("ver") != 1) r.where.fail("index data version " + std::to_string(r.u32("ver")) + " (only 1 is known)");
-    if (r.u32("conn") != connection || r.u32("count") != count) {
-      r.where.fail("index data for connection " + std::to_string(r.u32("conn")) + " with " +
-                   std::to_string(r.u32("count")) + " messages, but the chunk info (" + at_byte(info.where.byte) +
-                   ") says connection " + std::to_string(connection) + " with " + std::to_string(count));
+    const std::uint32_t connection = r.u32("conn"), count = r.u32("count");
+    const auto it = expected.find(connection);
+    if (it == expected.end() || it->second != count) {
+      r.where.fail("index data for connection " + std::to_string(connection) + " with " + std::to_string(count) +
+                   " messages, which the chunk info at " + at_byte(info.where.byte) + " does not list");
     }
+    expected.erase(it);
     if (r.data_len != std::uint64_t{count} * kIndexEntryBytes) {
       r.where.fail("index data of " + std::to_string(r.data_len) + " bytes for " + std::to_string(count) + " messages");
     }
@@ -488,7 +502,7 @@ void read_index_data(Contents& c, FileSource& src, std::uint64_t pos, const Chun
     for (std::uint32_t i = 0; i < count; ++i) {
       const std::uint8_t* e = &data[kIndexEntryBytes * i];
       const std::uint32_t offset = le32(e + 8);
-      if (offset >= chunk.size) r.where.fail("index entry points past the end of its chunk");
+      if (offset >= chunk.size) r.where.fail("an index entry points past the end of its chunk");
       c.messages[topic].push_back({topic, ros_time_ns(e), chunk_id, offset});
     }
     pos = r.end();
@@ -607,7 +621,7 @@ void load_scanned(Contents& c, const BagFile& file, std::uint64_t first, const s
     try {
       r = read_record(src, pos);
     } catch (const InputError& e) {
-      stop = e.what();
+      stop = problem_of(e);
       break;
     }
     if (r.op == ros1::kOpChunk) {
@@ -658,9 +672,9 @@ Contents load(const BagFile& file) {
     std::vector<ChunkInfo> infos;
     try {
       infos = read_index_section(c, file, index_pos, connections, chunks);
-    } catch (const CutOff& e) {
+    } catch (const CutOff&) {
       c = Contents{};
-      load_scanned(c, file, header.end(), std::string("its index is cut off: ") + e.what());
+      load_scanned(c, file, header.end(), "its index at " + at_byte(index_pos) + " is cut off");
       return c;
     }
     load_indexed(c, file, std::move(infos));

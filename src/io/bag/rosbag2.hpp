@@ -28,12 +28,12 @@ std::unique_ptr<BagReader> open_rosbag2_db3(const std::filesystem::path& path);
 /// 1-9; unknown keys are ignored).
 struct Rosbag2Metadata {
   int version = 0;
-  std::string storage_identifier;            ///< "sqlite3", "mcap", ...
+  std::string storage_identifier;                ///< "sqlite3", "mcap", ...
   std::vector<std::string> relative_file_paths;  ///< as written, in order
-  std::string compression_format;            ///< "" when not compressed
-  std::string compression_mode;              ///< "", "FILE" or "MESSAGE"
+  std::string compression_format;                ///< "" when not compressed
+  std::string compression_mode;                  ///< "", "FILE" or "MESSAGE"
   std::uint64_t message_count = 0;
-  std::vector<std::string> warnings;         ///< what was tolerated
+  std::vector<std::string> warnings;  ///< what was tolerated
 };
 
 /// Parses metadata.yaml text; `file` names it in errors. Throws InputError(file, "line N", what).

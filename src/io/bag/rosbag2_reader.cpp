@@ -62,8 +62,9 @@ bool step(const fs::path& file, sqlite3* db, sqlite3_stmt* stmt) {
 
 std::string column_text(sqlite3_stmt* stmt, int column) {
   const unsigned char* text = sqlite3_column_text(stmt, column);
-  return text == nullptr ? std::string() : std::string(reinterpret_cast<const char*>(text),
-                                                       static_cast<std::size_t>(sqlite3_column_bytes(stmt, column)));
+  return text == nullptr ? std::string()
+                         : std::string(reinterpret_cast<const char*>(text),
+                                       static_cast<std::size_t>(sqlite3_column_bytes(stmt, column)));
 }
 
 std::string quoted_identifier(const std::string& name) { return "\"" + name + "\""; }
@@ -80,7 +81,8 @@ void require_columns(const fs::path& file, const std::set<std::string>& have, co
   if (have.empty()) throw InputError(file.string(), "", "no '" + table + "' table: not a rosbag2 sqlite3 file");
   for (const char* column : needed) {
     if (have.count(column) == 0) {
-      throw InputError(file.string(), "", "the '" + table + "' table has no '" + column + "' column: not a rosbag2 sqlite3 file");
+      throw InputError(file.string(), "",
+                       "the '" + table + "' table has no '" + column + "' column: not a rosbag2 sqlite3 file");
     }
   }
 }
@@ -118,7 +120,8 @@ std::uintmax_t check_header(const fs::path& path, bool has_wal) {
   const std::string_view first(reinterpret_cast<const char*>(h.data()), static_cast<std::size_t>(in.gcount()));
   if (!is_sqlite3(first)) throw InputError(path.string(), "", "not a sqlite3 database (no 'SQLite format 3' header)");
   if (first.size() < kSqliteHeaderBytes) {
-    throw InputError(path.string(), "byte " + std::to_string(first.size()), "truncated inside the 100-byte sqlite3 header");
+    throw InputError(path.string(), "byte " + std::to_string(first.size()),
+                     "truncated inside the 100-byte sqlite3 header");
   }
   const std::uint32_t raw_page = big_endian(&h[16], 2);
   const std::uint64_t page_bytes = raw_page == 1 ? 65536 : raw_page;
@@ -184,6 +187,7 @@ class Db3Reader final : public BagReader {
 
   fs::path path_;
   std::string uri_;
+  bool immutable_ = true;
   std::uintmax_t file_bytes_ = 0;
   std::vector<Topic> topics_;
   std::vector<std::int64_t> topic_ids_;  ///< topics.id of each entry of topics_
@@ -204,8 +208,11 @@ Db3Reader::Db3Reader(fs::path path) : path_(std::move(path)) {
   // then; otherwise `immutable` (no locks, no journal files, works on read-only media).
   const bool has_wal = fs::exists(path_.string() + "-wal", ec);
   file_bytes_ = check_header(path_, has_wal);
-  uri_ = sqlite_uri(path_, !has_wal);
-  if (has_wal) warnings_.push_back("a write-ahead log (-wal) lies beside it: read with locking, the bag may still be recording");
+  immutable_ = !has_wal;
+  uri_ = sqlite_uri(path_, immutable_);
+  if (has_wal) {
+    warnings_.push_back("a write-ahead log (-wal) lies beside it: read with locking, the bag may still be recording");
+  }
   std::unique_ptr<Connection> conn = connect();
   sqlite3* db = conn->db.get();
   require_columns(path_, table_columns(path_, db, "messages"), "messages", {"id", "topic_id", "timestamp", "data"});
@@ -218,11 +225,15 @@ Db3Reader::Db3Reader(fs::path path) : path_(std::move(path)) {
 
 std::unique_ptr<Db3Reader::Connection> Db3Reader::connect() const {
   sqlite3* raw = nullptr;
-  const int rc = sqlite3_open_v2(uri_.c_str(), &raw, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_NOMUTEX, nullptr);
+  const int rc =
+      sqlite3_open_v2(uri_.c_str(), &raw, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI | SQLITE_OPEN_NOMUTEX, nullptr);
   auto conn = std::make_unique<Connection>();
   conn->db.reset(raw);
   if (rc != SQLITE_OK) fail_sqlite(path_, raw, "cannot open");
   sqlite3_busy_timeout(raw, 5000);  // only matters when a recorder holds a lock (WAL case)
+  // Memory-mapped pages read a 3 MB blob 5x faster than one pread per overflow page (measured:
+  // 0.8 vs 4.3 ms). Only for an immutable file: a file that changes under a mapping faults.
+  if (immutable_) sqlite3_exec(raw, "PRAGMA mmap_size=2147418112", nullptr, nullptr, nullptr);
   return conn;
 }
 
@@ -247,12 +258,14 @@ void Db3Reader::read_schema(sqlite3* db) {
   const std::set<std::string> columns = table_columns(path_, db, "schema");
   const bool has_definitions = !table_columns(path_, db, "message_definitions").empty();
   if (columns.count("schema_version") == 0) {
-    describe_ = has_definitions ? "rosbag2 sqlite3 (no schema table)" : "rosbag2 sqlite3 (old schema: no message definitions)";
+    describe_ =
+        has_definitions ? "rosbag2 sqlite3 (no schema table)" : "rosbag2 sqlite3 (old schema: no message definitions)";
     return;
   }
   const bool has_distro = columns.count("ros_distro") != 0;
-  Stmt stmt = prepare(path_, db, std::string("SELECT schema_version") + (has_distro ? ", ros_distro" : "") +
-                                      " FROM schema ORDER BY schema_version DESC LIMIT 1");
+  Stmt stmt = prepare(path_, db,
+                      std::string("SELECT schema_version") + (has_distro ? ", ros_distro" : "") +
+                          " FROM schema ORDER BY schema_version DESC LIMIT 1");
   std::string version = "unknown", distro = "unknown";
   if (step(path_, db, stmt.get())) {
     version = std::to_string(sqlite3_column_int64(stmt.get(), 0));
@@ -268,7 +281,8 @@ std::map<std::string, Definition> Db3Reader::read_definitions(sqlite3* db) const
   for (const char* needed : {"topic_type", "encoding", "encoded_message_definition"}) {
     if (columns.count(needed) == 0) return out;
   }
-  Stmt stmt = prepare(path_, db, "SELECT topic_type, encoding, encoded_message_definition FROM message_definitions ORDER BY rowid");
+  Stmt stmt = prepare(
+      path_, db, "SELECT topic_type, encoding, encoded_message_definition FROM message_definitions ORDER BY rowid");
   while (step(path_, db, stmt.get())) {
     Definition d{column_text(stmt.get(), 1), column_text(stmt.get(), 2)};
     if (!d.text.empty()) out.emplace(column_text(stmt.get(), 0), std::move(d));  // first wins
@@ -279,8 +293,9 @@ std::map<std::string, Definition> Db3Reader::read_definitions(sqlite3* db) const
 void Db3Reader::read_topics(sqlite3* db) {
   const std::map<std::string, Definition> definitions = read_definitions(db);
   const bool has_format = table_columns(path_, db, "topics").count("serialization_format") != 0;
-  Stmt stmt = prepare(path_, db, std::string("SELECT id, name, type") + (has_format ? ", serialization_format" : "") +
-                                      " FROM topics ORDER BY id");
+  Stmt stmt = prepare(
+      path_, db,
+      std::string("SELECT id, name, type") + (has_format ? ", serialization_format" : "") + " FROM topics ORDER BY id");
   std::set<std::int64_t> seen;
   while (step(path_, db, stmt.get())) {
     const std::int64_t id = sqlite3_column_int64(stmt.get(), 0);
@@ -290,10 +305,12 @@ void Db3Reader::read_topics(sqlite3* db) {
     topic.encoding = MessageEncoding::kCdr;
     const std::string format = has_format ? column_text(stmt.get(), 3) : "cdr";
     if (!seen.insert(id).second) {
-      warnings_.push_back("topic id " + std::to_string(id) + " (" + topic.name + ") is listed twice: the second is ignored");
+      warnings_.push_back("topic id " + std::to_string(id) + " (" + topic.name +
+                          ") is listed twice: the second is ignored");
       continue;
     }
-    if (format != "cdr") warnings_.push_back("topic " + topic.name + ": serialization format '" + format + "', read as CDR");
+    if (format != "cdr")
+      warnings_.push_back("topic " + topic.name + ": serialization format '" + format + "', read as CDR");
     if (const auto it = definitions.find(topic.type); it != definitions.end()) {
       topic.definition = it->second.text;
       topic.definition_encoding = it->second.encoding;
@@ -306,7 +323,8 @@ void Db3Reader::read_topics(sqlite3* db) {
 void Db3Reader::count_messages(sqlite3* db) {
   std::map<std::int64_t, std::size_t> index_of_id;
   for (std::size_t i = 0; i < topic_ids_.size(); ++i) index_of_id[topic_ids_[i]] = i;
-  Stmt stmt = prepare(path_, db, "SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages GROUP BY topic_id");
+  Stmt stmt =
+      prepare(path_, db, "SELECT topic_id, COUNT(*), MIN(timestamp), MAX(timestamp) FROM messages GROUP BY topic_id");
   bool any = false;
   std::uint64_t orphans = 0;
   while (step(path_, db, stmt.get())) {
@@ -322,7 +340,8 @@ void Db3Reader::count_messages(sqlite3* db) {
     end_ns_ = any ? std::max(end_ns_, last) : last;
     any = true;
   }
-  if (orphans > 0) warnings_.push_back(std::to_string(orphans) + " messages of a topic id not in the topics table: ignored");
+  if (orphans > 0)
+    warnings_.push_back(std::to_string(orphans) + " messages of a topic id not in the topics table: ignored");
 }
 
 std::vector<MessageRef> Db3Reader::messages(std::uint32_t topic) const {
@@ -358,8 +377,9 @@ std::vector<std::uint8_t> Db3Reader::read(const MessageRef& ref) const {
   }
   const int bytes = sqlite3_blob_bytes(conn->blob);
   if (bytes < 0 || static_cast<std::uintmax_t>(bytes) > file_bytes_) {
-    throw InputError(path_.string(), "", "message row " + std::to_string(rowid) + " claims " + std::to_string(bytes) +
-                                             " bytes, more than the file holds");
+    throw InputError(path_.string(), "",
+                     "message row " + std::to_string(rowid) + " claims " + std::to_string(bytes) +
+                         " bytes, more than the file holds");
   }
   std::vector<std::uint8_t> data(static_cast<std::size_t>(bytes));
   if (bytes > 0 && sqlite3_blob_read(conn->blob, data.data(), bytes, 0) != SQLITE_OK) {
@@ -378,7 +398,8 @@ int yaml_int(const YAML::Node& map, const char* key, int fallback, const std::st
   try {
     return node.as<int>();
   } catch (const YAML::Exception&) {
-    throw InputError(file, "line " + std::to_string(node.Mark().line + 1), std::string("'") + key + "' must be an integer");
+    throw InputError(file, "line " + std::to_string(node.Mark().line + 1),
+                     std::string("'") + key + "' must be an integer");
   }
 }
 
@@ -386,17 +407,20 @@ std::string yaml_text(const YAML::Node& map, const char* key, const std::string&
   const YAML::Node node = map[key];
   if (!node || node.IsNull()) return "";
   if (!node.IsScalar()) {
-    throw InputError(file, "line " + std::to_string(node.Mark().line + 1), std::string("'") + key + "' must be a text value");
+    throw InputError(file, "line " + std::to_string(node.Mark().line + 1),
+                     std::string("'") + key + "' must be a text value");
   }
   return node.Scalar();
 }
 
-std::vector<std::string> yaml_paths(const YAML::Node& info, const std::string& file, std::vector<std::string>& warnings) {
+std::vector<std::string> yaml_paths(const YAML::Node& info, const std::string& file,
+                                    std::vector<std::string>& warnings) {
   std::vector<std::string> out;
   const YAML::Node list = info["relative_file_paths"];
   if (list && list.IsSequence()) {
     for (const YAML::Node& item : list) {
-      if (!item.IsScalar()) throw InputError(file, "line " + std::to_string(item.Mark().line + 1), "a file path must be text");
+      if (!item.IsScalar())
+        throw InputError(file, "line " + std::to_string(item.Mark().line + 1), "a file path must be text");
       out.push_back(item.Scalar());
     }
     return out;
@@ -407,7 +431,8 @@ std::vector<std::string> yaml_paths(const YAML::Node& info, const std::string& f
       if (item.IsMap() && item["path"] && item["path"].IsScalar()) out.push_back(item["path"].Scalar());
     }
   }
-  warnings.push_back("metadata.yaml has no relative_file_paths list" + std::string(out.empty() ? "" : ": used its 'files'"));
+  warnings.push_back("metadata.yaml has no relative_file_paths list" +
+                     std::string(out.empty() ? "" : ": used its 'files'"));
   return out;
 }
 
@@ -415,7 +440,8 @@ std::vector<std::string> yaml_paths(const YAML::Node& info, const std::string& f
 bool natural_less(const std::string& a, const std::string& b) {
   std::size_t i = 0, j = 0;
   while (i < a.size() && j < b.size()) {
-    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0, db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
+    const bool da = std::isdigit(static_cast<unsigned char>(a[i])) != 0,
+               db = std::isdigit(static_cast<unsigned char>(b[j])) != 0;
     if (da && db) {
       std::size_t ei = i, ej = j;
       while (ei < a.size() && std::isdigit(static_cast<unsigned char>(a[ei])) != 0) ++ei;
@@ -444,8 +470,9 @@ std::vector<fs::path> storage_files_by_name(const fs::path& folder) {
     if ((ext == ".db3" || ext == ".mcap") && entry.is_regular_file(ec)) files.push_back(entry.path());
   }
   if (ec) throw InputError(folder.string(), "", "cannot list the folder: " + ec.message());
-  std::sort(files.begin(), files.end(),
-            [](const fs::path& a, const fs::path& b) { return natural_less(a.filename().string(), b.filename().string()); });
+  std::sort(files.begin(), files.end(), [](const fs::path& a, const fs::path& b) {
+    return natural_less(a.filename().string(), b.filename().string());
+  });
   return files;
 }
 
@@ -462,14 +489,17 @@ fs::path resolve_listed(const fs::path& folder, const fs::path& yaml, const std:
     warnings.push_back("metadata.yaml names " + listed + "; read " + beside.filename().string() + " beside it");
     return beside;
   }
-  throw InputError(yaml.string(), "", "names the file '" + listed + "', which is missing (looked for " + resolved.string() + ")");
+  throw InputError(yaml.string(), "",
+                   "names the file '" + listed + "', which is missing (looked for " + resolved.string() + ")");
 }
 
 }  // namespace
 
 bool is_sqlite3(std::string_view first_bytes) { return first_bytes.substr(0, kSqliteMagic.size()) == kSqliteMagic; }
 
-std::unique_ptr<BagReader> open_rosbag2_db3(const std::filesystem::path& path) { return std::make_unique<Db3Reader>(path); }
+std::unique_ptr<BagReader> open_rosbag2_db3(const std::filesystem::path& path) {
+  return std::make_unique<Db3Reader>(path);
+}
 
 Rosbag2Metadata parse_rosbag2_metadata(std::string_view yaml_text_in, const std::string& file) {
   YAML::Node root;
@@ -479,7 +509,8 @@ Rosbag2Metadata parse_rosbag2_metadata(std::string_view yaml_text_in, const std:
     throw InputError(file, e.mark.is_null() ? "" : "line " + std::to_string(e.mark.line + 1), e.msg);
   }
   const YAML::Node info = root.IsMap() ? root["rosbag2_bagfile_information"] : YAML::Node();
-  if (!info || !info.IsMap()) throw InputError(file, "line 1", "no 'rosbag2_bagfile_information' map: not a rosbag2 metadata.yaml");
+  if (!info || !info.IsMap())
+    throw InputError(file, "line 1", "no 'rosbag2_bagfile_information' map: not a rosbag2 metadata.yaml");
   Rosbag2Metadata m;
   m.version = yaml_int(info, "version", 0, file);
   if (m.version < 1 || m.version > kNewestMetadataVersion) {
@@ -508,25 +539,30 @@ std::vector<std::filesystem::path> rosbag2_folder_files(const std::filesystem::p
   std::error_code ec;
   if (!fs::exists(yaml, ec)) {
     std::vector<fs::path> files = storage_files_by_name(folder);
-    if (files.empty()) throw InputError(folder.string(), "", "no metadata.yaml and no .db3 or .mcap file: not a rosbag2 folder");
+    if (files.empty())
+      throw InputError(folder.string(), "", "no metadata.yaml and no .db3 or .mcap file: not a rosbag2 folder");
     return files;
   }
   const Rosbag2Metadata m = parse_rosbag2_metadata(io::read_file(yaml), yaml.string());
   warnings.insert(warnings.end(), m.warnings.begin(), m.warnings.end());
   std::string mode = m.compression_mode;
-  std::transform(mode.begin(), mode.end(), mode.begin(), [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
+  std::transform(mode.begin(), mode.end(), mode.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::toupper(c)); });
   if (!m.compression_format.empty() && !mode.empty() && mode != "NONE") {
-    throw InputError(yaml.string(), "", "a compressed bag (" + m.compression_format + ", " + m.compression_mode +
-                                            " mode) is not supported: convert it to an uncompressed one with `ros2 bag convert`");
+    throw InputError(yaml.string(), "",
+                     "a compressed bag (" + m.compression_format + ", " + m.compression_mode +
+                         " mode) is not supported: convert it to an uncompressed one with `ros2 bag convert`");
   }
   if (m.storage_identifier != "sqlite3" && m.storage_identifier != "mcap") {
     warnings.push_back("metadata.yaml storage_identifier '" + m.storage_identifier + "': files read by their content");
   }
   std::vector<fs::path> files;
-  for (const std::string& listed : m.relative_file_paths) files.push_back(resolve_listed(folder, yaml, listed, m.version, warnings));
+  for (const std::string& listed : m.relative_file_paths)
+    files.push_back(resolve_listed(folder, yaml, listed, m.version, warnings));
   if (files.empty()) {
     files = storage_files_by_name(folder);
-    if (files.empty()) throw InputError(yaml.string(), "", "names no bag file, and the folder holds no .db3 or .mcap file");
+    if (files.empty())
+      throw InputError(yaml.string(), "", "names no bag file, and the folder holds no .db3 or .mcap file");
     warnings.push_back("metadata.yaml names no file: read the folder's bag files in name order");
   }
   return files;

@@ -20,9 +20,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kSchemaVersion = 4;           // the first with message_definitions (Iron and later)
+constexpr int kSchemaVersion = 4;  // the first with message_definitions (Iron and later)
 constexpr const char* kRosDistro = "humble";
-constexpr int kMetadataVersion = 5;         // what Humble writes; every later distro reads it
+constexpr int kMetadataVersion = 5;  // what Humble writes; every later distro reads it
 
 // The offered QoS a real recorder stores for an ordinary publisher (history as rmw reports it
 // from the graph, reliable, volatile, no deadline/lifespan, automatic liveliness).
@@ -108,9 +108,7 @@ class Db3Writer final : public BagWriter {
   bool closed_ = false;
 };
 
-fs::path folder_without_slash(const fs::path& folder) {
-  return folder.has_filename() ? folder : folder.parent_path();
-}
+fs::path folder_without_slash(const fs::path& folder) { return folder.has_filename() ? folder : folder.parent_path(); }
 
 Db3Writer::Db3Writer(fs::path folder) : folder_(folder_without_slash(folder)) {
   std::error_code ec;
@@ -129,7 +127,8 @@ Db3Writer::Db3Writer(fs::path folder) : folder_(folder_without_slash(folder)) {
   if (!fs::create_directory(tmp_dir_, ec)) throw InputError(folder_.string(), "", "cannot create " + tmp_dir_.string());
   file_name_ = folder_.filename().string() + "_0.db3";
   sqlite3* raw = nullptr;
-  const int rc = sqlite3_open_v2((tmp_dir_ / file_name_).c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
+  const int rc =
+      sqlite3_open_v2((tmp_dir_ / file_name_).c_str(), &raw, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr);
   db_.reset(raw);
   if (rc != SQLITE_OK) fail("cannot create the database");
   // Nothing is visible before the rename, so sqlite's own crash safety buys nothing here.
@@ -165,9 +164,11 @@ Stmt Db3Writer::prepare(const char* sql) {
 std::uint32_t Db3Writer::add_topic(const Topic& topic_in) {
   if (closed_) throw std::logic_error("Db3Writer::add_topic after close()");
   if (topic_in.encoding != MessageEncoding::kCdr) {
-    throw InputError(folder_.string(), "", "topic " + topic_in.name + ": a rosbag2 sqlite3 bag holds CDR messages, not ROS 1 ones");
+    throw InputError(folder_.string(), "",
+                     "topic " + topic_in.name + ": a rosbag2 sqlite3 bag holds CDR messages, not ROS 1 ones");
   }
-  if (topic_in.name.empty() || topic_in.type.empty()) throw InputError(folder_.string(), "", "a topic needs a name and a type");
+  if (topic_in.name.empty() || topic_in.type.empty())
+    throw InputError(folder_.string(), "", "a topic needs a name and a type");
   TopicStats stats{topic_in, 0};
   stats.topic.type = ros2_type(topic_in.type);
   Stmt topic = prepare("INSERT INTO topics VALUES(?, ?, ?, 'cdr', ?, '')");
@@ -181,8 +182,9 @@ std::uint32_t Db3Writer::add_topic(const Topic& topic_in) {
     const std::string& text = topic_in.definition;
     const std::string encoding =
         text.empty() ? "unknown" : (topic_in.definition_encoding.empty() ? "ros2msg" : topic_in.definition_encoding);
-    Stmt def = prepare("INSERT INTO message_definitions(topic_type, encoding, encoded_message_definition, type_description_hash) "
-                       "VALUES(?, ?, ?, '')");
+    Stmt def = prepare(
+        "INSERT INTO message_definitions(topic_type, encoding, encoded_message_definition, type_description_hash) "
+        "VALUES(?, ?, ?, '')");
     sqlite3_bind_text(def.get(), 1, stats.topic.type.c_str(), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(def.get(), 2, encoding.c_str(), -1, SQLITE_TRANSIENT);
     sqlite3_bind_text(def.get(), 3, text.data(), static_cast<int>(text.size()), SQLITE_TRANSIENT);
@@ -196,11 +198,13 @@ void Db3Writer::write(std::uint32_t topic, std::int64_t log_time_ns, const std::
   if (closed_) throw std::logic_error("Db3Writer::write after close()");
   if (topic >= topics_.size()) throw std::out_of_range("Db3Writer::write: no topic " + std::to_string(topic));
   if (count_ > 0 && log_time_ns < last_ns_) {
-    throw InputError(folder_.string(), "", "message times must not decrease: " + std::to_string(log_time_ns) +
-                                               " ns after " + std::to_string(last_ns_) + " ns");
+    throw InputError(folder_.string(), "",
+                     "message times must not decrease: " + std::to_string(log_time_ns) + " ns after " +
+                         std::to_string(last_ns_) + " ns");
   }
   if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max())) {
-    throw InputError(folder_.string(), "", "a message of " + std::to_string(bytes.size()) + " bytes is too large for sqlite3");
+    throw InputError(folder_.string(), "",
+                     "a message of " + std::to_string(bytes.size()) + " bytes is too large for sqlite3");
   }
   sqlite3_stmt* stmt = insert_message_.get();
   sqlite3_bind_int64(stmt, 1, static_cast<sqlite3_int64>(topic + 1));
@@ -282,15 +286,17 @@ void Db3Writer::move_into_place() {
   std::error_code ec;
   fs::path old;
   if (fs::exists(folder_, ec)) {
-    if (!is_replaceable_folder(folder_)) throw InputError(folder_.string(), "", "exists and is not a rosbag2 folder: not replacing it");
+    if (!is_replaceable_folder(folder_))
+      throw InputError(folder_.string(), "", "exists and is not a rosbag2 folder: not replacing it");
     old = tmp_dir_.string() + ".old";
     fs::rename(folder_, old, ec);
     if (ec) throw InputError(folder_.string(), "", "cannot replace the existing folder: " + ec.message());
   }
   fs::rename(tmp_dir_, folder_, ec);
   if (ec) {
-    if (!old.empty()) fs::rename(old, folder_, ec);
-    throw InputError(folder_.string(), "", "cannot move the finished bag into place: " + ec.message());
+    const std::string why = ec.message();
+    if (!old.empty()) fs::rename(old, folder_, ec);  // put the previous bag back
+    throw InputError(folder_.string(), "", "cannot move the finished bag into place: " + why);
   }
   if (!old.empty()) fs::remove_all(old, ec);
 }

@@ -24,4 +24,20 @@ Mat3 R_enu_ins_enu(double roll_deg, double pitch_deg, double yaw_deg);
 /// R_enu_ned: maps NED vectors into ENU (swap x and y, negate z).
 Mat3 R_enu_ned();
 
+/// POSPac SBET: NED angles whose heading is the platform heading in the wander-azimuth frame; the
+/// true heading is platform heading - wander angle (Applanix's definition), then as R_enu_ins_ned.
+Mat3 R_enu_ins_sbet(double roll_deg, double pitch_deg, double platform_heading_deg, double wander_deg);
+
+/// The angles (deg) each convention above writes for R_enu_ins, for the writers: applying the
+/// convention's function to them gives R_enu_ins back. `heading_deg` is the convention's third
+/// angle: NovAtel azimuth and NED heading in [0, 360) clockwise from north, ENU yaw in (-180, 180]
+/// counter-clockwise from east. Pitch in [-90, 90]; at +-90 deg the split between roll and heading
+/// is arbitrary (the rotation is still reproduced).
+struct AttitudeDeg {
+  double roll_deg = 0.0, pitch_deg = 0.0, heading_deg = 0.0;
+};
+AttitudeDeg novatel_angles(const Mat3& R_enu_ins);
+AttitudeDeg ned_angles(const Mat3& R_enu_ins);
+AttitudeDeg enu_angles(const Mat3& R_enu_ins);
+
 }  // namespace insalign::io

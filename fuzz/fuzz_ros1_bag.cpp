@@ -1,0 +1,19 @@
+// Any input must either read or throw InputError: no crash, hang or sanitizer report. The input
+// is opened as a ROS 1 bag, its topics listed and every message read.
+#include "core/errors.hpp"
+#include "fuzz_common.hpp"
+#include "io/bag/ros1_bag.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  namespace bag = insalign::io::bag;
+  try {
+    const auto reader = bag::open_ros1_bag(insalign::fuzz::scratch_file(".bag", data, size));
+    (void)reader->describe();
+    for (std::uint32_t t = 0; t < reader->topics().size(); ++t) {
+      for (const bag::MessageRef& ref : reader->messages(t)) (void)reader->read(ref);
+    }
+  } catch (const insalign::InputError&) {
+    // expected for malformed input
+  }
+  return 0;
+}

@@ -1,0 +1,376 @@
+#include "io/bag_dataset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "io/extrinsic_json.hpp"
+#include "io/fiducials.hpp"
+#include "io/read_file.hpp"
+#include "io/ins/ins_track.hpp"
+
+namespace insalign::io {
+
+namespace {
+
+constexpr double kMinInsideFraction = 0.5;    // fewer LiDAR frames inside the INS range: clocks disagree
+constexpr double kMaxStampGap_s = 2.0;        // INS - LiDAR stamps at equal record time beyond this: clocks differ
+constexpr double kRecordGapTolerance_s = 0.05;  // whole-second match, gap measured from record times
+constexpr double kRangeGapTolerance_s = 0.15;   // ... measured from where the ranges begin
+
+const char* solution_name(GnssSolution s) {
+  switch (s) {
+    case GnssSolution::kRtkFixed: return "RTK fixed";
+    case GnssSolution::kRtkFloat: return "RTK float";
+    case GnssSolution::kDifferential: return "differential";
+    case GnssSolution::kSingle: return "single point";
+    case GnssSolution::kInsOnly: return "INS only";
+    case GnssSolution::kInvalid: return "invalid";
+    case GnssSolution::kUnknown: break;
+  }
+  return "not stated";
+}
+
+InsReport ins_report(const InsSource& src, const WorldTrack& world) {
+  InsReport r;
+  r.kind = ins_source_name(src.kind);
+  r.topics = src.topics, r.types = src.types;
+  r.ins_frame = src.track.body_frame, r.world_frame = src.track.world_frame;
+  r.ins_frame_id = src.ins_frame_id, r.world_frame_id = src.world_frame_id;
+  r.height_datum = src.track.height_datum, r.time_base = src.track.time_base;
+  r.messages = src.messages, r.records = src.track.records.size(), r.records_skipped = src.track.records_skipped;
+  r.t_begin_s = world.poses.front().t_s, r.t_end_s = world.poses.back().t_s;
+  r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(r.records - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
+  r.status_counts = src.status_counts;
+  std::map<GnssSolution, std::size_t> n;
+  for (const InsQuality& q : world.quality) ++n[q.solution];
+  if (!(n.size() == 1 && n.begin()->first == GnssSolution::kUnknown)) {
+    for (const auto& [s, c] : n) {
+      r.solution_fractions.emplace_back(solution_name(s), static_cast<double>(c) / static_cast<double>(world.quality.size()));
+    }
+  }
+  if (world.enu) r.enu_origin = world.enu->origin();
+  r.not_used = src.not_used;
+  return r;
+}
+
+// Quality only when the source states something.
+std::vector<InsQuality> stated_quality(const std::vector<InsQuality>& q) {
+  const bool any = std::any_of(q.begin(), q.end(), [](const InsQuality& x) {
+    return x.solution != GnssSolution::kUnknown || std::isfinite(x.horizontal_stddev_m) || std::isfinite(x.vertical_stddev_m);
+  });
+  return any ? q : std::vector<InsQuality>{};
+}
+
+std::string signed_s(double s) { return fmt::format("{:.3f} s {}", std::abs(s), s >= 0 ? "later" : "earlier"); }
+
+// Why the frames are (not) inside the INS range, in words.
+std::string range_words(const ClockReport& c) {
+  if (c.lidar_end_s < c.ins_begin_s) {
+    return fmt::format("the LiDAR frames end {:.3f} s before the INS records begin", c.ins_begin_s - c.lidar_end_s);
+  }
+  if (c.lidar_begin_s > c.ins_end_s) {
+    return fmt::format("the LiDAR frames begin {:.3f} s after the INS records end", c.lidar_begin_s - c.ins_end_s);
+  }
+  return fmt::format("{:.0f}% of the LiDAR frames lie inside the INS time range", 100.0 * c.frames_inside_fraction);
+}
+
+std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
+  std::string out = fmt::format("the INS stamps are {} than the LiDAR's ({})", signed_s(gap_s),
+                                from_records ? "median at equal record time" : "from where the two ranges begin");
+  if (c.explanation) {
+    return out + fmt::format(", close to {:.0f} s: {}", c.explanation->whole_s, c.explanation->meaning);
+  }
+  const double whole = std::round(gap_s);
+  const double tol = from_records ? kRecordGapTolerance_s : kRangeGapTolerance_s;
+  if (whole != 0.0 && std::abs(gap_s - whole) < tol) return out + fmt::format(", a whole number of seconds ({:.0f} s) of no known kind", whole);
+  return out + ", not a whole number of seconds";
+}
+
+ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const InsSource& ins, const PoseStream& poses) {
+  ClockReport c;
+  c.ins_begin_s = poses.t_begin(), c.ins_end_s = poses.t_end();
+  c.lidar_begin_s = lidars.front().frames.front().t_end_s, c.lidar_end_s = lidars.front().frames.back().t_end_s;
+  std::size_t total = 0, inside = 0;
+  std::vector<double> lags;
+  for (const LidarFrames& l : lidars) {
+    c.lidar_begin_s = std::min(c.lidar_begin_s, l.frames.front().t_end_s);
+    c.lidar_end_s = std::max(c.lidar_end_s, l.frames.back().t_end_s);
+    for (const CloudFrame& f : l.frames) inside += poses.covers(f.t_end_s) ? 1 : 0;
+    total += l.frames.size();
+    if (std::isfinite(l.report.stamp_minus_record_s)) lags.push_back(l.report.stamp_minus_record_s);
+  }
+  c.frames_inside_fraction = static_cast<double>(inside) / static_cast<double>(std::max<std::size_t>(1, total));
+  if (!lags.empty()) c.stamp_gap_s = ins.stamp_minus_record_s - median_of(lags);
+  const bool from_records = std::isfinite(c.stamp_gap_s);
+  const double gap_s = from_records ? c.stamp_gap_s : c.ins_begin_s - c.lidar_begin_s;
+  c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !(std::abs(c.stamp_gap_s) > kMaxStampGap_s);
+  c.explanation = explain_clock_gap(gap_s, from_records ? kRecordGapTolerance_s : kRangeGapTolerance_s);
+  c.summary = fmt::format("LiDAR frames {:.3f} .. {:.3f} s, INS {:.3f} .. {:.3f} s: {}; {}", c.lidar_begin_s,
+                          c.lidar_end_s, c.ins_begin_s, c.ins_end_s, range_words(c), gap_words(c, gap_s, from_records));
+  return c;
+}
+
+void check_clocks(const ClockReport& c, const std::string& path) {
+  if (c.consistent) return;
+  throw ClockGapError(path, "the LiDAR and INS clocks disagree: " + c.summary +
+                                ". Fix the clock of one sensor (or give the offset) and run again", c);
+}
+
+// The frames of one topic that the INS covers; the others counted.
+std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, std::vector<std::string>& warnings) {
+  std::vector<CloudFrame> used;
+  for (const CloudFrame& f : l.frames) {
+    if (poses.covers(f.t_end_s)) used.push_back(f);
+  }
+  LidarTopicReport& r = l.report;
+  r.frames_outside_ins = l.frames.size() - used.size();
+  r.frames_used = used.size();
+  if (r.frames_outside_ins > 0) {
+    warnings.push_back(fmt::format("{}: skipped {} of {} frames outside the INS time range [{:.3f}, {:.3f}] s", r.topic,
+                                   r.frames_outside_ins, l.frames.size(), poses.t_begin(), poses.t_end()));
+  }
+  if (!used.empty()) {
+    r.t_begin_s = used.front().t_end_s, r.t_end_s = used.back().t_end_s;
+    r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(used.size() - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
+  }
+  return used;
+}
+
+// Poses recentred on the first position (as load_dataset does: UTM is large).
+PoseStream recentred(std::vector<StampedPose> poses, Vec3& origin) {
+  origin = poses.front().T_world_ins.translation();
+  for (StampedPose& p : poses) p.T_world_ins.translation() -= origin;
+  return PoseStream(std::move(poses));
+}
+
+}  // namespace
+
+std::optional<ClockGapExplanation> explain_clock_gap(double gap_s, double tolerance_s) {
+  constexpr double kGpsUtc = 18.0, kTaiUtc = 37.0, kTaiGps = 19.0, kGpsEpoch = 315964800.0;
+  std::vector<std::pair<double, std::string>> known = {
+      {kGpsUtc, "GPS - UTC (18 leap seconds): one sensor stamps GPS time, the other UTC (UNIX) time"},
+      {kTaiUtc, "TAI - UTC (37 s): one sensor stamps TAI (PTP without its UTC offset), the other UTC"},
+      {kTaiGps, "TAI - GPS (19 s): one sensor stamps TAI, the other GPS time"},
+      {kGpsEpoch, "the GPS epoch (1980-01-06) against the UNIX epoch: one sensor stamps GPS seconds, the other UNIX time"},
+      {kGpsEpoch + kGpsUtc, "GPS seconds since 1980 (with 18 leap seconds) against UNIX time"},
+  };
+  for (int quarters = 1; quarters <= 56; ++quarters) {  // time zones: whole quarter hours up to 14 h
+    const double zone = 900.0 * quarters;
+    const std::string hm = fmt::format("{}:{:02d}", quarters / 4, 15 * (quarters % 4));
+    known.emplace_back(zone, "a time-zone offset of " + hm + " h: one sensor stamps local time, the other UTC");
+    known.emplace_back(zone + kGpsUtc, "a time-zone offset of " + hm + " h plus GPS - UTC (18 s)");
+    known.emplace_back(zone - kGpsUtc, "a time-zone offset of " + hm + " h minus GPS - UTC (18 s)");
+  }
+  for (const auto& [whole, meaning] : known) {
+    if (std::abs(std::abs(gap_s) - whole) <= tolerance_s) return ClockGapExplanation{gap_s, std::copysign(whole, gap_s), meaning};
+  }
+  return std::nullopt;
+}
+
+BagDatasets load_bag(const BagOptions& options) {
+  return load_bag(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path)), options);
+}
+
+BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options) {
+  BagDatasets out;
+  BagReport& rep = out.report;
+  const std::string path = reader->path().string();
+  rep.path = path;
+  rep.container = reader->describe();
+  rep.warnings = reader->warnings();
+
+  // Topics, then the INS (small messages), then the clouds' stamps and a few decoded clouds.
+  const std::vector<std::uint32_t> lidar_topics = choose_lidar_topics(*reader, options.lidar_topics);
+  const InsSourceTopics ins_topics = choose_ins_source(*reader, options.ins_topic);
+  const InsSource ins = read_ins_source(*reader, ins_topics, {options.world_frame, options.ins_frame, options.ins_time_shift_s});
+  rep.warnings.insert(rep.warnings.end(), ins.track.warnings.begin(), ins.track.warnings.end());
+  const WorldTrack world = to_world(ins.track);
+  out.enu = world.enu;
+  rep.ins = ins_report(ins, world);
+  Vec3 origin = Vec3::Zero();
+  const PoseStream poses = recentred(world.poses, origin);
+
+  std::vector<LidarFrames> lidars;
+  for (std::uint32_t topic : lidar_topics) {
+    lidars.push_back(index_lidar_topic(*reader, topic, *out.counters));
+    rep.warnings.insert(rep.warnings.end(), lidars.back().warnings.begin(), lidars.back().warnings.end());
+  }
+  rep.clock = analyse_clocks(lidars, ins, poses);
+  check_clocks(rep.clock, path);
+
+  std::vector<Fiducial> fiducials;
+  if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, world.enu, origin);
+  std::optional<Iso3> init;
+  if (options.init) init = read_opencalib_extrinsic(*options.init);
+  const std::vector<InsQuality> quality = stated_quality(world.quality);
+  for (LidarFrames& l : lidars) {
+    const std::vector<CloudFrame> used = frames_inside(l, poses, rep.warnings);
+    Dataset d;
+    d.frames = make_frame_source(reader, l.topic, used, out.counters);
+    d.poses = poses;
+    d.ins_quality = quality;
+    d.world_origin_m = origin;
+    d.fiducials = fiducials;
+    d.T_ins_lidar_init = init;
+    out.lidar_names.push_back(l.report.name);
+    out.lidars.push_back(std::move(d));
+    rep.lidars.push_back(l.report);
+  }
+  return out;
+}
+
+LoadReport to_load_report(const BagReport& report, std::size_t lidar) {
+  const LidarTopicReport& l = report.lidars.at(lidar);
+  LoadReport r;
+  r.frames_total = l.messages;
+  r.frames_used = l.frames_used;
+  r.frames_outside_poses = l.frames_outside_ins;
+  r.frames_bad = l.frames_duplicate;
+  r.time_field = l.time_field;
+  r.frame_time_source = fmt::format("{} header.stamp {:+.6f} s (sweep end - stamp, median of {} decoded clouds; {})",
+                                    l.topic, l.stamp_to_end_s, l.frames_sampled, l.time_description);
+  std::string topics;
+  for (const std::string& t : report.ins.topics) topics += (topics.empty() ? "" : " + ") + t;
+  r.pose_format = "bag: " + report.ins.kind + " " + topics;
+  r.warnings = report.warnings;
+  return r;
+}
+
+namespace {
+
+std::string lower_trimmed(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const auto b = s.find_first_not_of(" \t\r"), e = s.find_last_not_of(" \t\r");
+  return b == std::string::npos ? "" : s.substr(b, e - b + 1);
+}
+
+bool is_wgs84_marker(const std::string& line) {
+  std::string s = lower_trimmed(line);
+  if (s.empty() || s.front() != '#') return false;
+  s = lower_trimmed(s.substr(1));
+  return s == "wgs84" || s == "wgs-84";
+}
+
+double parse_number(const std::string& token, const std::string& file, const std::string& where, const char* what) {
+  std::size_t used = 0;
+  double v = 0.0;
+  try {
+    v = std::stod(token, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used != token.size() || !std::isfinite(v)) {
+    throw InputError(file, where, fmt::format("{} is not a finite number: '{}'", what, token));
+  }
+  return v;
+}
+
+std::vector<Fiducial> read_geodetic_fiducials(const std::filesystem::path& path, const LocalEnu& enu) {
+  const std::string file = path.string();
+  std::istringstream in(read_file(path));
+  std::vector<Fiducial> out;
+  std::set<std::string> ids;
+  std::string line;
+  for (std::size_t line_no = 1; std::getline(in, line); ++line_no) {
+    if (line_no == 1) continue;  // the "# wgs84" marker
+    if (const auto hash = line.find('#'); hash != std::string::npos) line.resize(hash);
+    std::istringstream ss(line);
+    std::vector<std::string> tok;
+    for (std::string t; ss >> t;) tok.push_back(t);
+    if (tok.empty()) continue;
+    const std::string where = "line " + std::to_string(line_no);
+    if (tok.size() != 4) {
+      throw InputError(file, where, fmt::format("expected 'id lat_deg lon_deg ellipsoidal_height_m', found {} values", tok.size()));
+    }
+    const GeodeticPoint p{parse_number(tok[1], file, where, "latitude"), parse_number(tok[2], file, where, "longitude"),
+                          parse_number(tok[3], file, where, "height")};
+    try {
+      check_geodetic(p);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(file, where, e.what());
+    }
+    if (!ids.insert(tok[0]).second) throw InputError(file, where, "duplicate fiducial id '" + tok[0] + "'");
+    out.push_back({tok[0], enu.position(p)});
+  }
+  return out;
+}
+
+std::string list_line(const std::vector<std::pair<std::string, std::size_t>>& counts) {
+  std::string out;
+  for (const auto& [k, n] : counts) out += fmt::format("{}{} {}", out.empty() ? "" : ", ", k, n);
+  return out;
+}
+
+void describe_lidar(std::string& s, const LidarTopicReport& l) {
+  s += fmt::format("LiDAR {} ({}, name '{}', frame '{}'): {} messages\n", l.topic, l.type, l.name, l.frame_id, l.messages);
+  s += fmt::format("  per-point time: {}\n", l.time_description);
+  std::string fields;
+  for (const std::string& f : l.fields) fields += (fields.empty() ? "" : ", ") + f;
+  s += fmt::format("  fields: {}\n", fields);
+  s += fmt::format("  frame time = header.stamp {:+.6f} s (sweep end; spread {:.6f} s over {} decoded clouds, {:.0f} points each)\n",
+                   l.stamp_to_end_s, l.stamp_to_end_spread_s, l.frames_sampled, l.mean_points);
+  s += fmt::format("  frames used {} of {} ({} outside the INS range, {} duplicate stamps): {:.3f} .. {:.3f} s, {:.2f} Hz\n",
+                   l.frames_used, l.messages, l.frames_outside_ins, l.frames_duplicate, l.t_begin_s, l.t_end_s, l.rate_hz);
+}
+
+void describe_ins(std::string& s, const InsReport& r) {
+  std::string topics;
+  for (std::size_t i = 0; i < r.topics.size(); ++i) topics += fmt::format("{}{} ({})", i ? " + " : "", r.topics[i], r.types[i]);
+  s += fmt::format("INS {}: {}\n", r.kind, topics);
+  s += fmt::format("  ins = {}\n  world = {}\n", r.ins_frame, r.world_frame);
+  if (r.enu_origin) {
+    s += fmt::format("  ENU origin: lat {:.9f} deg, lon {:.9f} deg, height {:.3f} m\n", r.enu_origin->lat_deg,
+                     r.enu_origin->lon_deg, r.enu_origin->height_m);
+  }
+  s += fmt::format("  height: {}\n  time: {}\n", r.height_datum, r.time_base);
+  s += fmt::format("  {} messages, {} records used ({} dropped): {:.3f} .. {:.3f} s, {:.2f} Hz\n", r.messages, r.records,
+                   r.records_skipped, r.t_begin_s, r.t_end_s, r.rate_hz);
+  if (!r.status_counts.empty()) s += "  status: " + list_line(r.status_counts) + "\n";
+  if (!r.solution_fractions.empty()) {
+    std::string f;
+    for (const auto& [k, v] : r.solution_fractions) f += fmt::format("{}{} {:.1f}%", f.empty() ? "" : ", ", k, 100.0 * v);
+    s += "  solution: " + f + "\n";
+  }
+  for (const std::string& n : r.not_used) s += "  not used: " + n + "\n";
+}
+
+}  // namespace
+
+bool is_geodetic_fiducial_file(const std::filesystem::path& path) {
+  std::istringstream in(read_file(path));
+  std::string first;
+  std::getline(in, first);
+  return is_wgs84_marker(first);
+}
+
+std::vector<Fiducial> read_bag_fiducials(const std::filesystem::path& path, const std::optional<LocalEnu>& enu,
+                                         const Vec3& world_origin_m) {
+  std::vector<Fiducial> out;
+  if (is_geodetic_fiducial_file(path)) {
+    if (!enu) {
+      throw InputError(path.string(), "line 1",
+                       "geodetic fiducials (# wgs84) need a geodetic INS source (INSPVA(X), NavSatFix + Imu); this "
+                       "INS source is cartesian: give the fiducials in its world frame");
+    }
+    out = read_geodetic_fiducials(path, *enu);
+  } else {
+    out = read_fiducials(path);
+  }
+  for (Fiducial& f : out) f.p_world -= world_origin_m;
+  return out;
+}
+
+std::string describe_bag(const BagReport& report) {
+  std::string s = fmt::format("{}: {}\n", report.path, report.container);
+  for (const LidarTopicReport& l : report.lidars) describe_lidar(s, l);
+  describe_ins(s, report.ins);
+  s += "clocks: " + report.clock.summary + "\n";
+  for (const std::string& w : report.warnings) s += "warning: " + w + "\n";
+  return s;
+}
+
+}  // namespace insalign::io
