@@ -15,7 +15,10 @@ namespace {
 void read_everything(const insalign::io::bag::BagReader& bag) {
   (void)bag.describe();
   for (std::uint32_t t = 0; t < bag.topics().size(); ++t) {
-    for (const insalign::io::bag::MessageRef& ref : bag.messages(t)) (void)bag.read(ref);
+    for (const insalign::io::bag::MessageRef& ref : bag.messages(t)) {
+      (void)bag.read(ref);
+      (void)bag.read_prefix(ref, 16);
+    }
   }
 }
 

@@ -523,6 +523,50 @@ TEST(BagDataset, ClockGapsAreInputErrorsWithBothRanges) {
   }
 }
 
+// When the record times are copies of the stamps (converted data sets), only the ranges can tell.
+TEST(BagDataset, ClockGapFromTheRangesWhenRecordTimesAreTheStamps) {
+  const fs::path dir = fresh_dir("clock_copied");
+  BagBuilder b;
+  const std::uint32_t points = b.topic("/points", "sensor_msgs/PointCloud2"), odom = b.topic("/odom", "nav_msgs/Odometry");
+  for (int k = 0; k < 30; ++k) {
+    const double t_end = kT0 + 0.1 * (k + 1);  // Velodyne: the stamp is the sweep end, as the record time
+    b.add(points, t_end, encode_message(make_pointcloud2(small_sweep(t_end), DriverLayout::kVelodyne, "lidar"), b.enc()));
+  }
+  for (int i = 0; i <= 165; ++i) {
+    Odometry m;
+    m.header = header_at(kFirstInsS + 0.02 * i + 18.0, "odom");
+    b.add(odom, m.header.stamp.seconds(), encode_message(m, b.enc()));
+  }
+  const fs::path bag = b.write(dir / "c.mcap");
+  try {
+    load_bag(options_for(bag));
+    ADD_FAILURE() << "no error";
+  } catch (const ClockGapError& e) {
+    EXPECT_FALSE(std::isfinite(e.clock().stamp_gap_s));
+    ASSERT_TRUE(e.clock().explanation.has_value());
+    EXPECT_NEAR(e.clock().explanation->gap_s, 18.0, 1e-6);  // the middles of [0.1, 3.0] and [17.9, 21.2] s
+    EXPECT_NE(std::string(e.what()).find("between the middles of the two ranges), close to 18 s: GPS - UTC"), std::string::npos)
+        << e.what();
+  }
+}
+
+TEST(BagDataset, AnInsThatStopsEarlyIsNotAClockError) {
+  const fs::path dir = fresh_dir("ins_short");
+  BagBuilder b;
+  add_clouds(b, "/points", 30);
+  add_ins(b, InsSourceKind::kOdometry, 0.0, 0.85);  // covers 8 of 30 frames; the clocks agree
+  const fs::path bag = b.write(dir / "s.mcap");
+  const BagDatasets d = load_bag(options_for(bag));
+  EXPECT_TRUE(d.report.clock.consistent);
+  EXPECT_EQ(d.report.lidars[0].frames_used, 8u);
+  BagBuilder none;  // no frame inside at all, clocks still agreeing: an InputError, not a clock error
+  add_clouds(none, "/points", 10, DriverLayout::kHesai, kT0 + 5.0);
+  add_ins(none, InsSourceKind::kOdometry, 0.0, 2.0);
+  const std::string e = error_of([&] { load_bag(options_for(none.write(dir / "n.mcap"))); });
+  EXPECT_NE(e.find("no frame of /points (1700000005.100 .. 1700000006.000 s) lies inside the INS time range"),
+            std::string::npos) << e;
+}
+
 TEST(BagDataset, FramesHangingOverTheInsEndsAreSkippedNotFatal) {
   const fs::path dir = fresh_dir("overhang");
   BagBuilder b;
@@ -618,6 +662,99 @@ TEST(BagDataset, GeodeticFiducialsGoThroughTheInsEnuFrame) {
   BagOptions oc = options_for(cart.write(dir / "c.mcap"));
   oc.fiducials = dir / "fid.txt";
   EXPECT_NE(error_of([&] { load_bag(oc); }).find("need a geodetic INS source"), std::string::npos);
+}
+
+TEST(BagDataset, NovatelGpsMsgsNamesReadAsTheOem7Ones) {
+  const fs::path dir = fresh_dir("novatel_gps");
+  for (const bool inspvax : {true, false}) {
+    BagBuilder b(BagFormat::kRos1);
+    add_clouds(b, "/points", 10);
+    const std::uint32_t id = b.topic(inspvax ? "/novatel/inspvax" : "/novatel/inspva",
+                                     inspvax ? "novatel_gps_msgs/Inspvax" : "novatel_gps_msgs/Inspva");
+    const LocalEnu enu(kOrigin);
+    for (int i = 0; i <= 70; ++i) {
+      const double t = kFirstInsS + 0.02 * i;
+      const Iso3 T = T_world_vehicle(t, 0.0) * T_vehicle_novatel();  // driving east: azimuth 90
+      const GeodeticPoint p = enu.geodetic(T.translation());
+      const AttitudeDeg a = novatel_angles(enu.rotation_at(p).transpose() * T.linear());
+      const NovatelAttitude pva{0.0, kSpeed, 0.0, a.roll_deg, a.pitch_deg, a.heading_deg};
+      if (inspvax) {
+        NovatelGpsInspvax m;
+        m.header = header_at(t, "gps");
+        m.ins_status = "INS_SOLUTION_GOOD", m.position_type = "INS_RTKFLOAT";
+        m.latitude = p.lat_deg, m.longitude = p.lon_deg, m.undulation = 47.5f, m.altitude = p.height_m - 47.5;
+        m.pva = pva, m.latitude_std = m.longitude_std = 0.1f, m.altitude_std = 0.2f;
+        b.add(id, t + 0.002, encode_message(m, b.enc()));
+      } else {
+        NovatelGpsInspva m;
+        m.header = header_at(t, "gps");
+        m.status = "INS_SOLUTION_GOOD";
+        m.latitude = p.lat_deg, m.longitude = p.lon_deg, m.height = p.height_m, m.pva = pva;
+        b.add(id, t + 0.002, encode_message(m, b.enc()));
+      }
+    }
+    const BagDatasets d = load_bag(options_for(b.write(dir / "g.bag")));
+    SCOPED_TRACE(inspvax ? "Inspvax" : "Inspva");
+    EXPECT_EQ(d.report.ins.kind, inspvax ? "NovAtel INSPVAX" : "NovAtel INSPVA");
+    EXPECT_NEAR(std::abs(d.report.ins.solution_fractions.empty() ? 0.0 : 1.0), inspvax ? 1.0 : 0.0, 1e-12);
+    const Iso3 got = d.lidars[0].poses.T_world_ins(kT0 + 1.0);
+    expect_near(got, T_world_vehicle(kT0 + 1.0, 0.0) * T_vehicle_novatel(), 1e-6, "novatel_gps_msgs");
+    EXPECT_NEAR(got.linear().col(1).x(), 1.0, 1e-9);  // y forward = east
+    if (inspvax) EXPECT_EQ(d.lidars[0].ins_quality[5].solution, GnssSolution::kRtkFloat);
+  }
+}
+
+// ------------------------------------------------------------- recordings the ROS tools wrote
+
+#ifdef INSALIGN_SHARED_DATA_DIR
+const fs::path kShared = fs::path(INSALIGN_SHARED_DATA_DIR) / "bags";
+#else
+const fs::path kShared;
+#endif
+
+TEST(BagDataset, RealOdometryBagGivesItsFirstAndLastPoses) {
+  const fs::path bag = kShared / "rosbag2" / "autoware-odometry-db3";
+  if (kShared.empty() || !fs::exists(bag)) GTEST_SKIP() << "no shared data at " << bag;
+  const BagTrajectory t = load_bag_trajectory(options_for(bag));  // no LiDAR topic: the trajectory alone
+  EXPECT_EQ(t.report.kind, "Odometry");
+  EXPECT_EQ(t.report.records, 2130u);
+  EXPECT_EQ(t.report.world_frame_id, "map");
+  EXPECT_EQ(t.report.ins_frame_id, "base_link");
+  const auto& p = t.poses.poses();
+  // The README's times are the record times; header.stamp comes 0.2 ms before each.
+  EXPECT_NEAR(p.front().t_s, 1746721937.5996, 1e-3);
+  EXPECT_NEAR(p.back().t_s, 1746721990.8246, 1e-3);
+  EXPECT_NEAR(t.report.stamp_minus_record_s, -0.0002, 0.0001);
+  EXPECT_LT((t.world_origin_m - Vec3(966.5026, 1036.0884, 100.0)).norm(), 1e-4);
+  EXPECT_LT((p.back().T_world_ins.translation() + t.world_origin_m - Vec3(1091.8456, 1090.6974, 100.0)).norm(), 1e-4);
+  const Eigen::Quaterniond q0(p.front().T_world_ins.linear()), q1(p.back().T_world_ins.linear());
+  EXPECT_NEAR(std::abs(q0.dot(Eigen::Quaterniond(0.9999700, 0, 0, 0.0077518))), 1.0, 1e-7);  // 7 digits listed
+  EXPECT_NEAR(std::abs(q1.dot(Eigen::Quaterniond(0.7125796, 0, 0, 0.7015913))), 1.0, 1e-7);
+  EXPECT_NEAR(t.report.rate_hz, 40.0, 0.1);
+  const std::string text = describe_trajectory(t);
+  EXPECT_NE(text.find("orientation (x y z w) 0.0000000 0.0000000 0.0077518 0.9999700"), std::string::npos) << text;
+  EXPECT_NE(text.find("position 1091.8456 1090.6974 100.0000 m"), std::string::npos) << text;
+  EXPECT_NE(error_of([&] { load_bag(options_for(bag)); }).find("no sensor_msgs/PointCloud2"), std::string::npos);
+}
+
+TEST(BagDataset, RealTurtlesimTfNeedsTheInsFrame) {
+  const fs::path bag = kShared / "ros1" / "example-lz4.bag";
+  if (kShared.empty() || !fs::exists(bag)) GTEST_SKIP() << "no shared data at " << bag;
+  const std::string e = error_of([&] { load_bag_trajectory(options_for(bag)); });
+  EXPECT_NE(e.find("turtle1"), std::string::npos) << e;
+  EXPECT_NE(e.find("turtle2"), std::string::npos) << e;
+  EXPECT_NE(e.find("--ins-frame"), std::string::npos) << e;
+  BagOptions o = options_for(bag);
+  o.ins_frame = "turtle1";
+  const BagTrajectory t = load_bag_trajectory(o);
+  EXPECT_EQ(t.report.kind, "TF");
+  EXPECT_EQ(t.report.world_frame_id, "world");
+  EXPECT_GT(t.report.records, 1000u);
+  const std::string topics = describe_recording(*open_bag(bag));
+  for (const char* line : {"/tf  tf/tfMessage  2688 msgs  (INS: TF)", "/turtle1/pose  turtlesim/Pose  1344 msgs  (not read)",
+                           "/rosout  rosgraph_msgs/Log  10 msgs  (not read)"}) {
+    EXPECT_NE(topics.find(line), std::string::npos) << line << "\n" << topics;
+  }
 }
 
 // ---------------------------------------------------------------- fixtures the ecosystem wrote

@@ -171,13 +171,13 @@ TEST(BagEndToEnd, EveryFormatConventionAndInsMessageGivesThePcdFoldersData) {
 TEST(BagEndToEnd, CalibrationFromPcdAndFromBagAgree) {
   sim::SimConfig c;
   c.seed = 5;
-  c.duration_s = 30.0;
-  c.azimuth_step_deg = 1.0;
+  c.duration_s = 20.0;
+  c.azimuth_step_deg = 1.5;
   c.time_offset_s = 0.02;
   const sim::World world = sim::build_world(c);
   const fs::path dir = fresh_dir("calibrate");
   Dataset pcd = write_and_load_pcd(world, dir / "pcd");
-  const BagRun run{BagFormat::kMcap, Compression::kZstd, LidarConvention::kOuster, InsMessage::kInspva, nullptr};
+  const BagRun run{BagFormat::kMcap, Compression::kZstd, LidarConvention::kHesai, InsMessage::kInspva, nullptr};
   const io::BagDatasets bag = write_and_load_bag(world, run, dir / "bag");
   pcd.ins_quality = bag.lidars[0].ins_quality;  // the TUM file states no quality; the recording does
   PipelineConfig config;

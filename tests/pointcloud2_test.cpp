@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -181,32 +182,34 @@ TEST(PointCloud2, OusterOrganizedCloudWithRowPadding) {
 
 TEST(PointCloud2, OtherTimeConventionsByNameTypeAndValue) {
   struct Case {
-    PointField field;
-    std::vector<double> values;  // written in the field's type
+    const char* name;
+    std::uint8_t datatype;
+    std::array<double, 3> values;  // written in the field's type
     PointTimeConvention convention;
     double t_end_s;
   };
   const double abs_s = kT0 + 0.25;
   const std::vector<Case> cases = {
-      {{"timestamp", 12, F::kFloat64, 1}, {abs_s - 0.1, abs_s, abs_s - 0.05}, PointTimeConvention::kAbsoluteSeconds, abs_s},
-      {{"timestamp", 12, F::kFloat64, 1}, {abs_s * 1e9 - 1e8, abs_s * 1e9, abs_s * 1e9 - 5e7},
+      {"timestamp", F::kFloat64, {abs_s - 0.1, abs_s, abs_s - 0.05}, PointTimeConvention::kAbsoluteSeconds, abs_s},
+      {"timestamp", F::kFloat64, {abs_s * 1e9 - 1e8, abs_s * 1e9, abs_s * 1e9 - 5e7},
        PointTimeConvention::kAbsoluteNanoseconds, abs_s},
       // relative float64 seconds named timestamp, and float t as seconds
-      {{"timestamp", 12, F::kFloat64, 1}, {0.0, 0.1, 0.05}, PointTimeConvention::kRelativeSeconds, kT0 + 0.1},
-      {{"t", 12, F::kFloat32, 1}, {0.0, 0.1, 0.05}, PointTimeConvention::kRelativeSeconds, kT0 + 0.1},
+      {"timestamp", F::kFloat64, {0.0, 0.1, 0.05}, PointTimeConvention::kRelativeSeconds, kT0 + 0.1},
+      {"t", F::kFloat32, {0.0, 0.1, 0.05}, PointTimeConvention::kRelativeSeconds, kT0 + 0.1},
       // Livox CustomMsg converted: offset_time uint32 ns after the stamp
-      {{"offset_time", 12, F::kUint32, 1}, {0, 1e8, 5e7}, PointTimeConvention::kRelativeNanoseconds, kT0 + 0.1},
+      {"offset_time", F::kUint32, {0, 1e8, 5e7}, PointTimeConvention::kRelativeNanoseconds, kT0 + 0.1},
       // an absolute clock of the LiDAR's own (seconds since power-on), far from the stamp
-      {{"timestamp", 12, F::kFloat64, 1}, {5000.0, 5000.1, 5000.05}, PointTimeConvention::kAbsoluteSeconds, 5000.1},
+      {"timestamp", F::kFloat64, {5000.0, 5000.1, 5000.05}, PointTimeConvention::kAbsoluteSeconds, 5000.1},
   };
   for (const Case& c : cases) {
-    CloudBuilder b({xyz_fields()[0], xyz_fields()[1], xyz_fields()[2], c.field}, 24, 3);
+    const PointField field{c.name, 12, c.datatype, 1};
+    CloudBuilder b({xyz_fields()[0], xyz_fields()[1], xyz_fields()[2], field}, 24, 3);
     for (int i = 0; i < 3; ++i) {
       b.xyz(i, 1, 2, 3);
-      switch (c.field.datatype) {
-        case F::kFloat64: b.set(i, c.field.name, c.values[i]); break;
-        case F::kFloat32: b.set(i, c.field.name, static_cast<float>(c.values[i])); break;
-        default: b.set(i, c.field.name, static_cast<std::uint32_t>(c.values[i])); break;
+      switch (c.datatype) {
+        case F::kFloat64: b.set(i, c.name, c.values[i]); break;
+        case F::kFloat32: b.set(i, c.name, static_cast<float>(c.values[i])); break;
+        default: b.set(i, c.name, static_cast<std::uint32_t>(c.values[i])); break;
       }
     }
     PointCloudInfo info;
@@ -215,6 +218,22 @@ TEST(PointCloud2, OtherTimeConventionsByNameTypeAndValue) {
     EXPECT_NEAR(s.t_end_s, c.t_end_s, 1e-6) << info.time_description;
     ASSERT_EQ(s.dt_s.size(), 3u);
     EXPECT_NEAR(s.dt_s[0], -0.1, 1e-6) << info.time_description;
+  }
+}
+
+TEST(PointCloud2, SimulationClocksThatStartAtZero) {
+  // A bag recorded with sim time: header.stamp = 3 s. Relative times stay relative, absolute ones
+  // (close to the stamp) stay absolute.
+  for (const bool relative : {true, false}) {
+    CloudBuilder b({xyz_fields()[0], xyz_fields()[1], xyz_fields()[2], {"time", 12, F::kFloat32, 1}}, 16, 2);
+    b.cloud.header.stamp = {3, 0};
+    b.xyz(0, 1, 2, 3), b.xyz(1, 4, 5, 6);
+    b.set(0, "time", relative ? -0.1f : 2.9f), b.set(1, "time", relative ? 0.0f : 3.0f);
+    PointCloudInfo info;
+    const Sweep s = b.decode(kCdr, &info);
+    EXPECT_EQ(info.time_convention, relative ? PointTimeConvention::kRelativeSeconds : PointTimeConvention::kAbsoluteSeconds);
+    EXPECT_NEAR(s.t_end_s, 3.0, 1e-6);
+    EXPECT_NEAR(s.dt_s[0], -0.1, 1e-6);
   }
 }
 
@@ -340,9 +359,13 @@ TEST(PointCloud2, ErrorsNameWhatIsWrong) {
   rows.cloud.row_step = 20;
   EXPECT_NE(error_of([&] { rows.decode(kRos1, nullptr); }).find("row_step 20 is less than"), std::string::npos);
 
-  // An empty cloud is not an error.
+  // An empty cloud is not an error, nor slow (found by fuzzing: width 0, height 4e9).
   CloudBuilder empty(xyz_fields(), 12, 0);
   EXPECT_EQ(empty.decode(kCdr, nullptr).size(), 0u);
+  empty.cloud.height = 4'000'000'000u;
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(empty.decode(kRos1, nullptr).size(), 0u);
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 0.1);
 }
 
 // --------------------------------------------------------------------------------------- speed

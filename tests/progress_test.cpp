@@ -60,6 +60,25 @@ TEST(Progress, LogGetsOneLinePerFinishedStep) {
   EXPECT_EQ(text.find('\r'), std::string::npos) << "no redraws in a log";
 }
 
+TEST(Progress, LongStepInALogGetsALineAtMostEveryIntervalAndTenth) {
+  Captured out;
+  {
+    ProgressBar bar(Verbosity::kNormal, out.file.get(), false);
+    bar.set_log_interval(std::chrono::milliseconds(20));
+    for (int i = 1; i <= 100; ++i) {
+      bar.update("render", i / 100.0);
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));  // 0.5 s in all
+    }
+  }
+  const std::string text = out.text();
+  const int progress_lines = count_lines(text) - 1;  // the last line is "done"
+  EXPECT_GE(progress_lines, 2) << text;  // 25 intervals passed
+  EXPECT_LE(progress_lines, 9) << text;  // but never more than one per tenth
+  EXPECT_NE(text.find("render     ["), std::string::npos) << text;
+  EXPECT_NE(text.find("render     done in"), std::string::npos) << text;
+  EXPECT_EQ(text.find('\r'), std::string::npos) << "no redraws in a log";
+}
+
 TEST(Progress, VerboseLogGetsALinePerTenthAndDetails) {
   Captured out;
   {

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <sqlite3.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -149,12 +150,11 @@ TEST(RosSerialization, OverrunsNameTheMessageTypeFieldAndByte) {
 }
 
 TEST(RosSerialization, RefusesOtherCdrEncapsulations) {
-  EXPECT_NE(error_of([] { MessageReader r(Blob{0, 0, 0, 0}, kCdr, "m", "t"); }).find("big-endian CDR"),
+  const Blob big_endian = {0, 0, 0, 0}, too_short = {0, 1}, xcdr2 = {0, 0x11, 0, 0};
+  EXPECT_NE(error_of([&] { MessageReader r(big_endian, kCdr, "m", "t"); }).find("big-endian CDR"), std::string::npos);
+  EXPECT_NE(error_of([&] { MessageReader r(too_short, kCdr, "m", "t"); }).find("shorter than the 4-byte"),
             std::string::npos);
-  EXPECT_NE(error_of([] { MessageReader r(Blob{0, 1}, kCdr, "m", "t"); }).find("shorter than the 4-byte"),
-            std::string::npos);
-  EXPECT_NE(error_of([] { MessageReader r(Blob{0, 0x11, 0, 0}, kCdr, "m", "t"); }).find("unsupported CDR"),
-            std::string::npos);
+  EXPECT_NE(error_of([&] { MessageReader r(xcdr2, kCdr, "m", "t"); }).find("unsupported CDR"), std::string::npos);
 }
 
 TEST(RosSerialization, TimeIsUnsignedInRos1AndSignedInCdr) {
@@ -253,9 +253,21 @@ TEST_P(RoundTrip, TfNavSatFixImuPointCloud2) {
   cloud.point_step = 8, cloud.row_step = 24, cloud.is_dense = false;
   cloud.data.resize(48);
   for (std::size_t i = 0; i < cloud.data.size(); ++i) cloud.data[i] = static_cast<std::uint8_t>(i * 7);
-  PointCloud2 cloud_back = decode_pointcloud2(encode_message(cloud, enc), enc, "m");
+  const Blob cloud_bytes = encode_message(cloud, enc);
+  PointCloud2 cloud_back = decode_pointcloud2(cloud_bytes, enc, "m");
   cloud.header = expected_header(cloud.header, enc);
   EXPECT_EQ(cloud_back, cloud);
+  // The layout from a prefix that stops inside the data.
+  std::size_t data_bytes = 0;
+  const Blob prefix(cloud_bytes.begin(), cloud_bytes.end() - 20);
+  const PointCloud2Layout head = decode_pointcloud2_head(prefix, enc, "m", &data_bytes);
+  EXPECT_EQ(head.fields, cloud.fields);
+  EXPECT_EQ(head.header, cloud.header);
+  EXPECT_EQ(head.row_step, 24u);
+  EXPECT_EQ(data_bytes, 48u);
+  const Blob first_40(cloud_bytes.begin(), cloud_bytes.begin() + 40);
+  MessageReader stamp_only(first_40, enc, "m", "sensor_msgs/PointCloud2");
+  EXPECT_EQ(read_header(stamp_only).stamp, cloud.header.stamp);
 }
 
 Oem7Header test_oem7_header(Oem7Header::Layout layout) {
@@ -527,6 +539,22 @@ TEST(MessageDefinitions, AMissingSectionIsTakenFromTheBuiltInOnceWithAWarning) {
   EXPECT_NE(check.warnings[0].find("no section for builtin_interfaces/Time"), std::string::npos);
 }
 
+TEST(MessageDefinitions, DefinitionsThatFanOutOrRecurseStayCheap) {
+  // Found by fuzzing: each type using the next one twice made the md5 and the check cost 2^depth.
+  std::string text = "p/T0 a\np/T0 b\n";
+  for (int i = 0; i < 40; ++i) {
+    text += std::string(80, '=') + "\nMSG: p/T" + std::to_string(i) + "\n";
+    text += i < 39 ? "p/T" + std::to_string(i + 1) + " a\np/T" + std::to_string(i + 1) + " b\n" : "uint8 x\n";
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(ros1_md5sum("p/Top", text, "fanout").size(), 32u);
+  const std::string e = error_of([&] { check_definition(topic_with("sensor_msgs/PointCloud2", text, false)); });
+  EXPECT_NE(e.find("not the one insalign reads"), std::string::npos) << e;
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  const std::string self = "p/Loop next\n" + std::string(80, '=') + "\nMSG: p/Loop\np/Loop next\n";
+  EXPECT_NE(error_of([&] { ros1_md5sum("p/Loop", self, "loop"); }).find("contains itself"), std::string::npos);
+}
+
 TEST(MessageDefinitions, Oem7HeaderLayoutComesFromTheStoredDefinition) {
   const MessageDefinition* d = builtin_definition("novatel_oem7_msgs/INSPVAX");
   const DefinitionCheck ros1 = check_definition(topic_with(d->type, d->ros1_text, false));
@@ -600,8 +628,11 @@ TEST(RosMessages, InspvaAndNovatelGpsToInsRecord) {
   EXPECT_DOUBLE_EQ(r.record.height_m, 983.5);
   EXPECT_EQ(r.record.solution, GnssSolution::kRtkFloat);
   EXPECT_NEAR(r.record.position_stddev_m.x(), 0.1, 1e-7);
-  x.ins_status = "WAITING_INITIALPOS";
+  x.ins_status = "WAITING_INITIALPOS";  // NovAtel's log spelling; the oem7 constant is WAITING_INITIAL_POS
   EXPECT_EQ(to_ins_record(x).record.solution, GnssSolution::kInvalid);
+  x.ins_status = "SOMETHING_NEW";
+  EXPECT_FALSE(to_ins_record(x).ins_status_good);
+  EXPECT_EQ(to_ins_record(x).record.solution, GnssSolution::kRtkFloat);  // unknown status: the class stays
   NovatelGpsInspva g;
   g.status = "INS_HIGH_VARIANCE";
   EXPECT_FALSE(to_ins_record(g).ins_status_good);

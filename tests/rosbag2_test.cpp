@@ -167,6 +167,7 @@ TEST(Rosbag2, RealSplitOldSchemaFolderWithoutMetadata) {
   EXPECT_EQ(refs.back().log_time_ns, 1616653339386193357);
   EXPECT_EQ(cdr_string(bag->read(refs.front())), "test");
   EXPECT_EQ(cdr_string(bag->read(refs[1324])), "test");  // first of the second file
+  EXPECT_EQ(bag->read_prefix(refs[1324], 6), std::vector<std::uint8_t>({0, 1, 0, 0, 5, 0}));
   EXPECT_EQ(cdr_string(bag->read(refs.back())), "test");
   // One file alone is an old-schema bag of its own.
   const auto part = open_bag(kBags / "split-db3-no-metadata" / "multiple_files_1.db3");
@@ -293,7 +294,11 @@ TEST(Rosbag2, WriterRoundTrip) {
   const auto point_refs = bag->messages(topic_index(*bag, "/points"));
   ASSERT_EQ(point_refs.size(), 1u);
   EXPECT_EQ(point_refs[0].log_time_ns, 1'050'000'000);
-  EXPECT_EQ(bag->read(point_refs[0]), pattern_bytes(3'000'000, 2));
+  const std::vector<std::uint8_t> cloud = pattern_bytes(3'000'000, 2);
+  EXPECT_EQ(bag->read(point_refs[0]), cloud);
+  EXPECT_EQ(bag->read_prefix(point_refs[0], 64), std::vector<std::uint8_t>(cloud.begin(), cloud.begin() + 64));
+  EXPECT_EQ(bag->read_prefix(imu_refs[2], 64), pattern_bytes(7, 3));  // shorter than asked: all of it
+  EXPECT_TRUE(bag->read_prefix(imu_refs[1], 64).empty());
   // The yaml holds what `ros2 bag info` needs.
   std::ifstream in(folder / "metadata.yaml");
   const std::string yaml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
@@ -400,6 +405,30 @@ TEST(Rosbag2, OldestSchemaWithoutQosOrFormatColumns) {
   EXPECT_EQ(bag->read(refs[0]).back(), 0xBB);  // time order, ties by row id
   EXPECT_EQ(bag->read(refs[1]).back(), 0xCC);
   EXPECT_EQ(bag->read(refs[2]).back(), 0xAA);
+  fs::remove_all(dir);
+}
+
+// A recorder still writing (WAL mode, rows not yet checkpointed): read through sqlite's locks, so
+// that the rows in the -wal file are seen, with a warning.
+TEST(Rosbag2, LiveRecordingWithWriteAheadLog) {
+  const fs::path dir = temp_dir("wal");
+  sqlite3* recorder = nullptr;
+  ASSERT_EQ(sqlite3_open((dir / "live.db3").c_str(), &recorder), SQLITE_OK);
+  const char* sql =
+      "PRAGMA journal_mode=WAL; PRAGMA wal_autocheckpoint=0;"
+      "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT, type TEXT, serialization_format TEXT);"
+      "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER, timestamp INTEGER, data BLOB);"
+      "INSERT INTO topics VALUES(1, '/a', 'std_msgs/msg/String', 'cdr');"
+      "INSERT INTO messages VALUES(1, 1, 5, x'0001000000');";
+  ASSERT_EQ(sqlite3_exec(recorder, sql, nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_TRUE(fs::exists(dir / "live.db3-wal"));
+  const auto bag = open_bag(dir / "live.db3");
+  ASSERT_EQ(bag->topics().size(), 1u);
+  EXPECT_EQ(bag->topics()[0].message_count, 1u);
+  ASSERT_EQ(bag->warnings().size(), 1u);
+  EXPECT_NE(bag->warnings()[0].find("write-ahead log"), std::string::npos);
+  EXPECT_EQ(bag->read(bag->messages(0).at(0)).size(), 5u);
+  sqlite3_close(recorder);
   fs::remove_all(dir);
 }
 

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "cli/commands.hpp"
+#include "cli/progress.hpp"
 #include "cli/sim_bag_export.hpp"
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
@@ -174,7 +175,7 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   j["translation_m"] = {T.translation().x(), T.translation().y(), T.translation().z()};
   j["rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
   j["quaternion_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
-  j["time_offset_s"] = c.time_offset_s;
+  j["time_offset_s"] = w.lidars.front().time_offset_s;  // = c.time_offset_s but in a rig
   j["ins_height_m"] = w.ins_height_m;
   j["T_ins_lidar_init"] = io::transform_to_json(w.T_ins_lidar_init);
   j["init_error"] = {{"angle_deg", init_err.angle_deg}, {"dt_norm_m", init_err.dt_norm_m}};
@@ -205,6 +206,10 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   j["config"] = cfg;
   if (has_ins_error_truth(w)) j["ins_error"] = ins_error_json(w);
   if (w.config.traffic > 0 || w.config.pedestrians > 0) j["traffic"] = traffic_json(w);
+  if (!c.rig.empty()) {
+    j["config"]["rig"] = c.rig;
+    j["config"]["rig_clock_spread_s"] = c.rig_clock_spread_s;
+  }
   return j;
 }
 
@@ -213,6 +218,146 @@ std::uintmax_t directory_bytes(const fs::path& dir) {
   for (const auto& e : fs::recursive_directory_iterator(dir))
     if (e.is_regular_file()) total += e.file_size();
   return total;
+}
+
+// Where each LiDAR's PCDs go: OUT/lidar for a single LiDAR, OUT/lidar/<name> in a rig (a LiDAR's
+// name is its folder's basename, CONVENTIONS.md).
+bool is_rig(const sim::World& w) { return !w.config.rig.empty(); }
+
+std::vector<fs::path> lidar_dirs(const sim::World& w, const fs::path& out) {
+  if (!is_rig(w)) return {out / "lidar"};
+  std::vector<fs::path> dirs;
+  for (const sim::SimLidar& l : w.lidars) dirs.push_back(out / "lidar" / l.name);
+  return dirs;
+}
+
+// Creates the folders. Stale frames from an earlier run would silently join this dataset: false
+// (with a message) unless --overwrite removes them.
+bool prepare_dirs(const std::vector<fs::path>& dirs, bool overwrite) {
+  for (const fs::path& dir : dirs) {
+    io::ensure_writable_dir(dir);
+    std::size_t stale = 0;
+    for (const auto& e : fs::directory_iterator(dir)) stale += e.path().extension() == ".pcd";
+    if (stale > 0 && !overwrite) {
+      fmt::print(stderr, "error: {} already holds {} PCD files; use an empty --out or pass --overwrite\n", dir.string(), stale);
+      return false;
+    }
+    for (const auto& e : fs::directory_iterator(dir))
+      if (e.path().extension() == ".pcd") fs::remove(e.path());
+  }
+  return true;
+}
+
+void print_plan(const SimulateOptions& o, const sim::World& w) {
+  std::size_t frames = 0;
+  std::string lidars;
+  for (const sim::SimLidar& l : w.lidars) {
+    frames += l.frame_times_s.size();
+    if (!lidars.empty()) lidars += ", ";
+    lidars += is_rig(w) ? l.name + ":" + l.model.name + "@" + l.mount : l.model.name;
+  }
+  fmt::print(stderr, "simulating {} frames ({}, {}, {}), writing to {}\n", frames, lidars, scene_name(o.config.scene),
+             trajectory_name(o.config.trajectory), o.out);
+  const std::size_t movers = w.traffic ? w.traffic->movers.size() : 0;
+  const int wanted = o.config.traffic + o.config.pedestrians;
+  if (wanted > 0) fmt::print(stderr, "traffic: {} of {} movers found room in the lanes and sidewalks\n", movers, wanted);
+}
+
+struct Rendered {  // per LiDAR
+  std::vector<std::vector<double>> t_end_s;
+  std::vector<std::vector<std::string>> names;
+  std::vector<std::size_t> points;
+};
+
+// Every frame of every LiDAR in parallel (each also casts its rays in parallel), written as it
+// is rendered: one sweep per worker in memory.
+Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::PcdEncoding encoding, ProgressBar& bar) {
+  Rendered r;
+  std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (lidar, frame)
+  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
+    const std::size_t n = w.lidars[i].frame_times_s.size();
+    r.t_end_s.emplace_back(n);
+    r.names.emplace_back(n);
+    for (std::size_t k = 0; k < n; ++k) jobs.emplace_back(i, k);
+  }
+  std::vector<std::atomic<std::size_t>> points(w.lidars.size());
+  const std::size_t n = jobs.size();
+  std::atomic<std::size_t> done{0};
+  // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
+  // another that is ray casting. TBB caps its workers at the core count unless told otherwise.
+  const int threads = static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency()));
+  const tbb::global_control allow_threads(tbb::global_control::max_allowed_parallelism, threads);
+  tbb::task_arena arena(threads);
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t j) {
+      const auto [i, k] = jobs[j];
+      const Sweep sweep = sim::render_lidar_sweep(w, i, k);
+      io::write_pcd(dirs[i] / (sweep.name + ".pcd"), sweep, encoding, io::PcdTimeField::kAbsolute);
+      r.t_end_s[i][k] = sweep.t_end_s;
+      r.names[i][k] = sweep.name;
+      points[i] += sweep.size();
+      bar.update("frames", static_cast<double>(++done) / static_cast<double>(n));
+    });
+  });
+  bar.finish();
+  for (const auto& p : points) r.points.push_back(p.load());
+  return r;
+}
+
+// A rig's LiDARs in ground_truth.json, by name (the top-level keys stay those of the first).
+nlohmann::json rig_json(const sim::World& w, const Rendered& r) {
+  nlohmann::json j;
+  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
+    const sim::SimLidar& l = w.lidars[i];
+    const Iso3& T = l.T_ins_lidar_true;
+    const Vec3 rpy = rpy_from_rotation(T.linear()) * kDegPerRad;
+    j[l.name] = {{"T_ins_lidar", io::transform_to_json(T)},
+                 {"translation_m", {T.translation().x(), T.translation().y(), T.translation().z()}},
+                 {"rpy_deg", {rpy.x(), rpy.y(), rpy.z()}},
+                 {"time_offset_s", l.time_offset_s},
+                 {"model", l.model.name},
+                 {"mount", l.mount},
+                 {"frame_rate_hz", l.frame_rate_hz},
+                 {"start_azimuth_deg", l.start_azimuth_rad * kDegPerRad},
+                 {"frames", l.frame_times_s.size()},
+                 {"points", r.points[i]},
+                 {"T_ins_lidar_init", io::transform_to_json(l.T_ins_lidar_init)}};
+  }
+  return j;
+}
+
+// Pose files, initial guesses, fiducials and the ground truth. A single LiDAR: poses.txt and
+// init-extrinsic.json as always; a rig: poses-<name>.txt and init-extrinsic-<name>.json each.
+void write_metadata(const SimulateOptions& o, const sim::World& w, const fs::path& out, const Rendered& r) {
+  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
+    const std::string suffix = is_rig(w) ? "-" + w.lidars[i].name : "";
+    std::vector<Iso3> T_world_ins;
+    for (const StampedPose& p : sim::frame_poses(w, r.t_end_s[i], i)) T_world_ins.push_back(p.T_world_ins);
+    io::write_opencalib_poses(out / ("poses" + suffix + ".txt"), r.names[i], T_world_ins);
+    io::write_opencalib_extrinsic(out / ("init-extrinsic" + suffix + ".json"), w.lidars[i].T_ins_lidar_init);
+  }
+  io::write_tum_poses(out / "poses_tum.txt", sim::dense_reported_poses(w, 100.0));
+  io::write_fiducials(out / "fiducials.txt", w.fiducials);
+  nlohmann::json gt = ground_truth_json(o, w, r.points.front());
+  if (is_rig(w)) gt["lidars"] = rig_json(w, r);
+  io::write_file_atomic(out / "ground_truth.json", gt.dump(2) + "\n");
+}
+
+void print_summary(const SimulateOptions& o, const sim::World& w, const fs::path& out, const Rendered& r, double elapsed_s) {
+  std::size_t frames = 0, points = 0;
+  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
+    frames += r.names[i].size();
+    points += r.points[i];
+  }
+  fmt::print("wrote {} frames ({} points, {:.1f} MB) to {} in {:.1f} s\n", frames, points,
+             static_cast<double>(directory_bytes(out)) / 1e6, out.string(), elapsed_s);
+  for (const sim::SimLidar& l : w.lidars) {
+    const Vec3 t = l.T_ins_lidar_true.translation();
+    const Vec3 rpy = rpy_from_rotation(l.T_ins_lidar_true.linear()) * kDegPerRad;
+    fmt::print("true T_ins_lidar{}: t = [{:.4f} {:.4f} {:.4f}] m, rpy = [{:.3f} {:.3f} {:.3f}] deg, time offset {} s\n",
+               is_rig(w) ? " (" + l.name + ")" : std::string(), t.x(), t.y(), t.z(), rpy.x(), rpy.y(), rpy.z(),
+               l.time_offset_s);
+  }
 }
 
 int run_simulate(SimulateOptions& o) {
@@ -235,86 +380,28 @@ int run_simulate(SimulateOptions& o) {
     bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
     bag.ins_message = *parse_ins_message(o.ins_message);
     bag.ground_truth = ground_truth_json(o, world, 0);
-    const auto print = [](std::size_t d, std::size_t n) { fmt::print(stderr, "\r  frames {}/{}{}", d, n, d == n ? "\n" : ""); };
+    ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+    const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
     const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
+    bar.finish();
     fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
                r.bag.string(), r.ins_frame);
     return kExitOk;
   }
-  const fs::path out = o.out, lidar_dir = out / "lidar";
-  io::ensure_writable_dir(lidar_dir);
-  // Stale frames from an earlier run would silently join this dataset.
-  std::size_t stale = 0;
-  for (const auto& e : fs::directory_iterator(lidar_dir)) stale += e.path().extension() == ".pcd";
-  if (stale > 0 && !o.overwrite) {
-    fmt::print(stderr, "error: {} already holds {} PCD files; use an empty --out or pass --overwrite\n",
-               lidar_dir.string(), stale);
-    return kExitUsage;
-  }
-  if (stale > 0) {
-    for (const auto& e : fs::directory_iterator(lidar_dir))
-      if (e.path().extension() == ".pcd") fs::remove(e.path());
-  }
+  const fs::path out = o.out;
+  const std::vector<fs::path> dirs = lidar_dirs(world, out);
+  if (!prepare_dirs(dirs, o.overwrite)) return kExitUsage;
   const io::PcdEncoding encoding = o.pcd_encoding == "ascii"    ? io::PcdEncoding::kAscii
                                    : o.pcd_encoding == "binary" ? io::PcdEncoding::kBinary
                                                                 : io::PcdEncoding::kBinaryCompressed;
-
-  const std::size_t n = world.frame_count();
-  if (!o.quiet)
-    fmt::print(stderr, "simulating {} frames ({}, {}, {}), writing to {}\n", n, world.lidar.name,
-               scene_name(o.config.scene), trajectory_name(o.config.trajectory), out.string());
-  const std::size_t movers = world.traffic ? world.traffic->movers.size() : 0;
-  const int wanted = o.config.traffic + o.config.pedestrians;
-  if (!o.quiet && wanted > 0)
-    fmt::print(stderr, "traffic: {} of {} movers found room in the lanes and sidewalks\n", movers, wanted);
-  std::vector<double> t_end(n);
-  std::vector<std::string> names(n);
-  std::atomic<std::size_t> done{0}, points{0};
-  std::mutex print_mutex;
+  if (!o.quiet) print_plan(o, world);
   const auto start = std::chrono::steady_clock::now();
-  auto last_print = start - std::chrono::seconds(10);
-  // Frames in parallel (each also casts its columns in parallel); one sweep per worker in memory.
-  // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
-  // another that is ray casting.
-  const int threads = static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency()));
-  // TBB caps its workers at the core count unless told otherwise (and says so on stderr).
-  const tbb::global_control allow_threads(tbb::global_control::max_allowed_parallelism, threads);
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-    const Sweep sweep = sim::render_sweep(world, k);
-    io::write_pcd(lidar_dir / (sweep.name + ".pcd"), sweep, encoding, io::PcdTimeField::kAbsolute);
-    t_end[k] = sweep.t_end_s;
-    names[k] = sweep.name;
-    points += sweep.size();
-    const std::size_t d = ++done;
-    if (o.quiet) return;
-    std::lock_guard<std::mutex> lock(print_mutex);
-    const auto now = std::chrono::steady_clock::now();
-    if (d < n && now - last_print < std::chrono::milliseconds(500)) return;
-    last_print = now;
-    const double elapsed = std::chrono::duration<double>(now - start).count();
-    const double eta = d > 0 ? elapsed * static_cast<double>(n - d) / static_cast<double>(d) : 0.0;
-    fmt::print(stderr, "\r  frames {}/{}  {:.1f} s elapsed  ETA {:.0f} s   ", d, n, elapsed, eta);
-    if (d == n) fmt::print(stderr, "\n");
-  });
-  });
-
-  std::vector<Iso3> T_world_ins;
-  for (const StampedPose& p : sim::frame_poses(world, t_end)) T_world_ins.push_back(p.T_world_ins);
-  io::write_opencalib_poses(out / "poses.txt", names, T_world_ins);
-  io::write_tum_poses(out / "poses_tum.txt", sim::dense_reported_poses(world, 100.0));
-  io::write_opencalib_extrinsic(out / "init-extrinsic.json", world.T_ins_lidar_init);
-  io::write_fiducials(out / "fiducials.txt", world.fiducials);
-  io::write_file_atomic(out / "ground_truth.json", ground_truth_json(o, world, points.load()).dump(2) + "\n");
-
+  // A bar on a terminal; in a log one line per step and a progress line at most every 5 s.
+  ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  const Rendered rendered = render_all(world, dirs, encoding, bar);
+  write_metadata(o, world, out, rendered);
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const Vec3 t = world.T_ins_lidar_true.translation();
-  const Vec3 rpy = rpy_from_rotation(world.T_ins_lidar_true.linear()) * kDegPerRad;
-  fmt::print("wrote {} frames ({} points, {:.1f} MB) to {} in {:.1f} s\n", n, points.load(),
-             static_cast<double>(directory_bytes(out)) / 1e6, out.string(), elapsed);
-  fmt::print("true T_ins_lidar: t = [{:.4f} {:.4f} {:.4f}] m, rpy = [{:.3f} {:.3f} {:.3f}] deg, time offset {} s\n",
-             t.x(), t.y(), t.z(), rpy.x(), rpy.y(), rpy.z(), o.config.time_offset_s);
+  print_summary(o, world, out, rendered, elapsed);
   return kExitOk;
 }
 
@@ -334,7 +421,15 @@ Command make_simulate_command() {
     sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
         ->capture_default_str();
     sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
-    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64 | vlp16")
+    sub->add_option("--rig", c.rig,
+                    "several LiDARs: name:model[@mount][/rate_hz],... e.g. top:pandar64,left:vlp16@left,right:vlp16@right,"
+                    "front:os1-64@front (mounts: roof, left, right, front, rear, roof-front; each LiDAR its own seeded "
+                    "mount, clock offset and spin phase; writes lidar/<name>/, poses-<name>.txt, init-extrinsic-<name>.json)");
+    sub->add_option("--rig-clock-spread-s", c.rig_clock_spread_s,
+                    "rig: each LiDAR's clock offset is --time-offset-s plus a uniform draw within +-this")
+        ->check(CLI::Range(0.0, 0.5))
+        ->capture_default_str();
+    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64 | vlp16 | livox-avia (70.4 deg rosette)")
         ->check(CLI::IsMember(sim::lidar_model_names()))
         ->capture_default_str();
     sub->add_option("--azimuth-step-deg", c.azimuth_step_deg, "horizontal resolution")
@@ -370,7 +465,8 @@ Command make_simulate_command() {
         ->check(CLI::Range(0.0, 1.0))
         ->capture_default_str();
     sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
-                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float")
+                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float with "
+                    "stddev 0.1-0.3 m (events keep 15 s from the drive's ends and 5 s apart)")
         ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
@@ -378,7 +474,7 @@ Command make_simulate_command() {
         ->capture_default_str();
     sub->add_option("--ins-outages", c.ins_error.outages,
                     "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
-                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only")
+                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only with a growing stddev")
         ->check(CLI::Range(0, 100))
         ->capture_default_str();
     sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();

@@ -39,6 +39,8 @@ void ProgressBar::update(std::string_view step, double fraction) {
     step_start_ = now;
     last_draw_ = now - std::chrono::seconds(1);
     next_verbose_decile_ = 1;
+    last_log_ = now;
+    last_logged_fraction_ = 0.0;
   }
   fraction_ = std::max(fraction_, fraction);  // workers may report out of order
   const double elapsed = std::chrono::duration<double>(now - step_start_).count();
@@ -54,6 +56,12 @@ void ProgressBar::update(std::string_view step, double fraction) {
       fmt::print(out_, "{}\n", bar_line(step_, fraction_, elapsed));
       ++next_verbose_decile_;
     }
+  } else if (fraction_ < 1.0 && now - last_log_ >= log_interval_ && fraction_ >= last_logged_fraction_ + 0.1) {
+    // Logs of a long step: a line now and then says it is alive, without flooding the log.
+    fmt::print(out_, "{}\n", bar_line(step_, fraction_, elapsed));
+    std::fflush(out_);
+    last_log_ = now;
+    last_logged_fraction_ = fraction_;
   }
 }
 
@@ -95,6 +103,11 @@ void ProgressBar::detail(std::string_view message) {
   if (verbosity_ != Verbosity::kVerbose) return;
   std::lock_guard lock(mutex_);
   print_line_locked(std::string(message));
+}
+
+void ProgressBar::set_log_interval(std::chrono::milliseconds interval) {
+  std::lock_guard lock(mutex_);
+  log_interval_ = interval;
 }
 
 std::function<void(std::string_view, double)> ProgressBar::callback() {

@@ -1,5 +1,6 @@
 // Terminal feedback for long steps: a progress bar with an ETA per step, redrawn in place on a
-// terminal and reduced to one line per finished step when output goes to a file or CI log.
+// terminal; in a file or CI log one line per finished step, plus a progress line for a long step
+// at most every 5 s and 10 % (never a carriage return).
 // --quiet prints nothing; --verbose adds detail lines. Thread-safe: pipeline stages may report
 // from worker threads.
 #pragma once
@@ -35,6 +36,9 @@ class ProgressBar {
   void detail(std::string_view message);
   /// An adapter for PipelineProgress-style callbacks (step, fraction).
   std::function<void(std::string_view, double)> callback();
+  /// Logs (not a terminal, normal verbosity): the least time between two progress lines of a step
+  /// (default 5 s; they also need 10 % more done).
+  void set_log_interval(std::chrono::milliseconds interval);
 
   /// The line drawn for a step at `fraction` after `elapsed_s` (exposed for tests).
   static std::string bar_line(std::string_view step, double fraction, double elapsed_s, int width = 30);
@@ -52,6 +56,9 @@ class ProgressBar {
   std::chrono::steady_clock::time_point step_start_, last_draw_;
   bool line_open_ = false;  ///< a bar is drawn on the current terminal line
   int next_verbose_decile_ = 1;
+  std::chrono::milliseconds log_interval_{5000};
+  std::chrono::steady_clock::time_point last_log_;  ///< last progress line in a log
+  double last_logged_fraction_ = 0.0;
 };
 
 /// "0:07", "1:05", "1:02:03" (h:mm:ss above an hour).

@@ -10,16 +10,19 @@
 #include "io/extrinsic_json.hpp"
 #include "io/fiducials.hpp"
 #include "io/read_file.hpp"
+#include "io/bag_scan.hpp"
+#include "io/bag_topics.hpp"
 #include "io/ins/ins_track.hpp"
 
 namespace insalign::io {
 
 namespace {
 
-constexpr double kMinInsideFraction = 0.5;    // fewer LiDAR frames inside the INS range: clocks disagree
+constexpr double kMinInsideFraction = 0.5;    // without usable record times: fewer frames inside, clocks disagree
 constexpr double kMaxStampGap_s = 2.0;        // INS - LiDAR stamps at equal record time beyond this: clocks differ
 constexpr double kRecordGapTolerance_s = 0.05;  // whole-second match, gap measured from record times
-constexpr double kRangeGapTolerance_s = 0.15;   // ... measured from where the ranges begin
+constexpr double kRangeGapTolerance_s = 0.15;   // ... measured between the middles of the ranges
+constexpr double kCopiedStamps_s = 1e-6;        // record time - stamp below this for both: copied stamps
 
 const char* solution_name(GnssSolution s) {
   switch (s) {
@@ -54,6 +57,7 @@ InsReport ins_report(const InsSource& src, const WorldTrack& world) {
   }
   if (world.enu) r.enu_origin = world.enu->origin();
   r.not_used = src.not_used;
+  r.stamp_minus_record_s = src.stamp_minus_record_s;
   return r;
 }
 
@@ -80,7 +84,7 @@ std::string range_words(const ClockReport& c) {
 
 std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
   std::string out = fmt::format("the INS stamps are {} than the LiDAR's ({})", signed_s(gap_s),
-                                from_records ? "median at equal record time" : "from where the two ranges begin");
+                                from_records ? "median at equal record time" : "between the middles of the two ranges");
   if (c.explanation) {
     return out + fmt::format(", close to {:.0f} s: {}", c.explanation->whole_s, c.explanation->meaning);
   }
@@ -90,7 +94,8 @@ std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
   return out + ", not a whole number of seconds";
 }
 
-ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const InsSource& ins, const PoseStream& poses) {
+ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const BagTrajectory& ins) {
+  const PoseStream& poses = ins.poses;
   ClockReport c;
   c.ins_begin_s = poses.t_begin(), c.ins_end_s = poses.t_end();
   c.lidar_begin_s = lidars.front().frames.front().t_end_s, c.lidar_end_s = lidars.front().frames.back().t_end_s;
@@ -104,10 +109,20 @@ ClockReport analyse_clocks(const std::vector<LidarFrames>& lidars, const InsSour
     if (std::isfinite(l.report.stamp_minus_record_s)) lags.push_back(l.report.stamp_minus_record_s);
   }
   c.frames_inside_fraction = static_cast<double>(inside) / static_cast<double>(std::max<std::size_t>(1, total));
-  if (!lags.empty()) c.stamp_gap_s = ins.stamp_minus_record_s - median_of(lags);
-  const bool from_records = std::isfinite(c.stamp_gap_s);
-  const double gap_s = from_records ? c.stamp_gap_s : c.ins_begin_s - c.lidar_begin_s;
-  c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !(std::abs(c.stamp_gap_s) > kMaxStampGap_s);
+  const double lidar_lag = median_of(lags), ins_lag = ins.report.stamp_minus_record_s;
+  // Record times copied from the stamps (converted data sets) say nothing about the clocks.
+  const bool from_records = std::isfinite(lidar_lag) && std::isfinite(ins_lag) &&
+                            !(std::abs(lidar_lag) < kCopiedStamps_s && std::abs(ins_lag) < kCopiedStamps_s);
+  if (from_records) c.stamp_gap_s = ins_lag - lidar_lag;
+  // Without record times: the middles of the ranges (recorders start and stop both sensors together).
+  const double gap_s = from_records ? c.stamp_gap_s : 0.5 * (c.ins_begin_s + c.ins_end_s - c.lidar_begin_s - c.lidar_end_s);
+  if (from_records) {
+    c.consistent = std::abs(c.stamp_gap_s) <= kMaxStampGap_s;
+  } else {  // by the ranges: most frames inside, and not both ends shifted alike
+    const double begin_shift = c.ins_begin_s - c.lidar_begin_s, end_shift = c.ins_end_s - c.lidar_end_s;
+    const bool shifted = std::abs(begin_shift) > kMaxStampGap_s && std::abs(begin_shift - end_shift) < kMaxStampGap_s;
+    c.consistent = c.frames_inside_fraction >= kMinInsideFraction && !shifted;
+  }
   c.explanation = explain_clock_gap(gap_s, from_records ? kRecordGapTolerance_s : kRangeGapTolerance_s);
   c.summary = fmt::format("LiDAR frames {:.3f} .. {:.3f} s, INS {:.3f} .. {:.3f} s: {}; {}", c.lidar_begin_s,
                           c.lidar_end_s, c.ins_begin_s, c.ins_end_s, range_words(c), gap_words(c, gap_s, from_records));
@@ -120,8 +135,9 @@ void check_clocks(const ClockReport& c, const std::string& path) {
                                 ". Fix the clock of one sensor (or give the offset) and run again", c);
 }
 
-// The frames of one topic that the INS covers; the others counted.
-std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, std::vector<std::string>& warnings) {
+// The frames of one topic that the INS covers; the others counted. None: InputError.
+std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, std::vector<std::string>& warnings,
+                                      const std::string& path) {
   std::vector<CloudFrame> used;
   for (const CloudFrame& f : l.frames) {
     if (poses.covers(f.t_end_s)) used.push_back(f);
@@ -133,19 +149,33 @@ std::vector<CloudFrame> frames_inside(LidarFrames& l, const PoseStream& poses, s
     warnings.push_back(fmt::format("{}: skipped {} of {} frames outside the INS time range [{:.3f}, {:.3f}] s", r.topic,
                                    r.frames_outside_ins, l.frames.size(), poses.t_begin(), poses.t_end()));
   }
-  if (!used.empty()) {
-    r.t_begin_s = used.front().t_end_s, r.t_end_s = used.back().t_end_s;
-    r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(used.size() - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
+  if (used.empty()) {
+    throw InputError(path, "", fmt::format("no frame of {} ({:.3f} .. {:.3f} s) lies inside the INS time range "
+                                           "[{:.3f}, {:.3f}] s",
+                                           r.topic, l.frames.front().t_end_s, l.frames.back().t_end_s, poses.t_begin(),
+                                           poses.t_end()));
   }
+  r.t_begin_s = used.front().t_end_s, r.t_end_s = used.back().t_end_s;
+  r.rate_hz = r.t_end_s > r.t_begin_s ? static_cast<double>(used.size() - 1) / (r.t_end_s - r.t_begin_s) : 0.0;
   return used;
 }
 
-// Poses recentred on the first position (as load_dataset does: UTM is large).
-PoseStream recentred(std::vector<StampedPose> poses, Vec3& origin) {
-  origin = poses.front().T_world_ins.translation();
-  for (StampedPose& p : poses) p.T_world_ins.translation() -= origin;
-  return PoseStream(std::move(poses));
+// The track in the world frame, recentred on the first position (as load_dataset does: UTM is large).
+BagTrajectory trajectory_of(const InsSource& ins) {
+  const WorldTrack world = to_world(ins.track);
+  BagTrajectory t;
+  t.enu = world.enu;
+  t.report = ins_report(ins, world);
+  t.warnings = ins.track.warnings;
+  t.ins_quality = stated_quality(world.quality);
+  std::vector<StampedPose> poses = world.poses;
+  t.world_origin_m = poses.front().T_world_ins.translation();
+  for (StampedPose& p : poses) p.T_world_ins.translation() -= t.world_origin_m;
+  t.poses = PoseStream(std::move(poses));
+  return t;
 }
+
+InsReadOptions ins_read_options(const BagOptions& o) { return {o.world_frame, o.ins_frame, o.ins_time_shift_s}; }
 
 }  // namespace
 
@@ -183,37 +213,40 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
   rep.container = reader->describe();
   rep.warnings = reader->warnings();
 
-  // Topics, then the INS (small messages), then the clouds' stamps and a few decoded clouds.
+  // Topics; a few decoded clouds per LiDAR; then one pass in record order over the INS messages
+  // and the clouds' stamps (a chunk holding both is decompressed once).
   const std::vector<std::uint32_t> lidar_topics = choose_lidar_topics(*reader, options.lidar_topics);
-  const InsSourceTopics ins_topics = choose_ins_source(*reader, options.ins_topic);
-  const InsSource ins = read_ins_source(*reader, ins_topics, {options.world_frame, options.ins_frame, options.ins_time_shift_s});
-  rep.warnings.insert(rep.warnings.end(), ins.track.warnings.begin(), ins.track.warnings.end());
-  const WorldTrack world = to_world(ins.track);
-  out.enu = world.enu;
-  rep.ins = ins_report(ins, world);
-  Vec3 origin = Vec3::Zero();
-  const PoseStream poses = recentred(world.poses, origin);
-
-  std::vector<LidarFrames> lidars;
+  InsSourceReader ins_reader(*reader, choose_ins_source(*reader, options.ins_topic), ins_read_options(options));
+  std::vector<std::unique_ptr<LidarTopicIndexer>> indexers;
+  std::vector<TopicPass> passes = ins_reader.passes();
   for (std::uint32_t topic : lidar_topics) {
-    lidars.push_back(index_lidar_topic(*reader, topic, *out.counters));
+    indexers.push_back(std::make_unique<LidarTopicIndexer>(*reader, topic, *out.counters));
+    passes.push_back(indexers.back()->pass());
+  }
+  read_in_record_order(*reader, passes);
+  const BagTrajectory ins = trajectory_of(ins_reader.finish());
+  rep.warnings.insert(rep.warnings.end(), ins.warnings.begin(), ins.warnings.end());
+  out.enu = ins.enu;
+  rep.ins = ins.report;
+  std::vector<LidarFrames> lidars;
+  for (const auto& indexer : indexers) {
+    lidars.push_back(indexer->finish());
     rep.warnings.insert(rep.warnings.end(), lidars.back().warnings.begin(), lidars.back().warnings.end());
   }
-  rep.clock = analyse_clocks(lidars, ins, poses);
+  rep.clock = analyse_clocks(lidars, ins);
   check_clocks(rep.clock, path);
 
   std::vector<Fiducial> fiducials;
-  if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, world.enu, origin);
+  if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, ins.enu, ins.world_origin_m);
   std::optional<Iso3> init;
   if (options.init) init = read_opencalib_extrinsic(*options.init);
-  const std::vector<InsQuality> quality = stated_quality(world.quality);
   for (LidarFrames& l : lidars) {
-    const std::vector<CloudFrame> used = frames_inside(l, poses, rep.warnings);
+    const std::vector<CloudFrame> used = frames_inside(l, ins.poses, rep.warnings, path);
     Dataset d;
     d.frames = make_frame_source(reader, l.topic, used, out.counters);
-    d.poses = poses;
-    d.ins_quality = quality;
-    d.world_origin_m = origin;
+    d.poses = ins.poses;
+    d.ins_quality = ins.ins_quality;
+    d.world_origin_m = ins.world_origin_m;
     d.fiducials = fiducials;
     d.T_ins_lidar_init = init;
     out.lidar_names.push_back(l.report.name);
@@ -221,6 +254,16 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
     rep.lidars.push_back(l.report);
   }
   return out;
+}
+
+BagTrajectory load_bag_trajectory(const BagOptions& options) {
+  return load_bag_trajectory(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path)), options);
+}
+
+BagTrajectory load_bag_trajectory(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options) {
+  BagTrajectory t = trajectory_of(read_ins_source(*reader, choose_ins_source(*reader, options.ins_topic), ins_read_options(options)));
+  t.warnings.insert(t.warnings.begin(), reader->warnings().begin(), reader->warnings().end());
+  return t;
 }
 
 LoadReport to_load_report(const BagReport& report, std::size_t lidar) {
@@ -362,6 +405,39 @@ std::vector<Fiducial> read_bag_fiducials(const std::filesystem::path& path, cons
   }
   for (Fiducial& f : out) f.p_world -= world_origin_m;
   return out;
+}
+
+std::string describe_recording(const bag::BagReader& reader) {
+  std::string s = fmt::format("{}: {}\n", reader.path().string(), reader.describe());
+  const double t0 = static_cast<double>(reader.start_time_ns()) * 1e-9, t1 = static_cast<double>(reader.end_time_ns()) * 1e-9;
+  s += fmt::format("record times {:.3f} .. {:.3f} s ({:.3f} s)\n", t0, t1, t1 - t0);
+  for (const bag::Topic& t : reader.topics()) {
+    const std::string type = bag::normalized_type(t.type);
+    const auto kind = ins_source_kind(t.type);
+    const std::string role = type == "sensor_msgs/PointCloud2" ? "LiDAR"
+                             : kind                           ? std::string("INS: ") + ins_source_name(*kind)
+                                                              : "not read";
+    s += fmt::format("  {}  {}  {} msgs  ({})\n", t.name, t.type, t.message_count, role);
+  }
+  for (const std::string& w : reader.warnings()) s += "warning: " + w + "\n";
+  return s;
+}
+
+std::string describe_trajectory(const BagTrajectory& trajectory) {
+  std::string s;
+  describe_ins(s, trajectory.report);
+  if (!trajectory.poses.empty()) {
+    const auto describe_pose = [&](const char* which, const StampedPose& p) {
+      const Vec3 t = p.T_world_ins.translation() + trajectory.world_origin_m;
+      const Eigen::Quaterniond q(p.T_world_ins.linear());
+      return fmt::format("  {} pose at {:.6f} s: position {:.4f} {:.4f} {:.4f} m, orientation (x y z w) {:.7f} {:.7f} {:.7f} {:.7f}\n",
+                         which, p.t_s, t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    };
+    s += describe_pose("first", trajectory.poses.poses().front());
+    s += describe_pose("last", trajectory.poses.poses().back());
+  }
+  for (const std::string& w : trajectory.warnings) s += "warning: " + w + "\n";
+  return s;
 }
 
 std::string describe_bag(const BagReport& report) {

@@ -8,11 +8,14 @@
 // sweeps themselves are decoded by FrameSource::load(i), lazily and thread-safely, and carry
 // their exact latest point time. Nothing else is kept: memory is the index plus what is loaded.
 //
-// Clocks: LiDAR frames outside the INS time range are skipped with a warning; when fewer than
-// half of them fall inside it, or when the two sensors' stamps differ by more than a second at
-// the same record time, the clocks disagree: ClockGapError (an InputError) says by how much,
-// whether that is a known whole-second offset (GPS-UTC 18 s, TAI-UTC 37 s, TAI-GPS 19 s, time
-// zones), and both ranges.
+// Clocks: the recorder received both sensors' messages on one clock, so header.stamp - record
+// time, compared between the LiDAR and the INS, tells a clock difference from a late start. When
+// the two differ by more than 2 s the clocks disagree: ClockGapError (an InputError) says by how
+// much, whether that is a known whole-second offset (GPS-UTC 18 s, TAI-UTC 37 s, TAI-GPS 19 s,
+// time zones), and both ranges. Record times copied from the stamps (converted data sets) cannot
+// tell: then fewer than half the frames inside the INS range, or both ends of the ranges shifted
+// alike by more than 2 s, is the error. LiDAR frames outside the INS range are skipped with a
+// warning; none inside is an InputError.
 #pragma once
 
 #include <cstddef>
@@ -92,6 +95,17 @@ struct InsReport {
   std::vector<std::pair<std::string, double>> solution_fractions;  ///< "RTK fixed" 0.98, ...
   std::optional<GeodeticPoint> enu_origin;  ///< geodetic sources: the local ENU frame's origin
   std::vector<std::string> not_used;        ///< other INS topics
+  double stamp_minus_record_s = std::numeric_limits<double>::quiet_NaN();  ///< median header.stamp - record time
+};
+
+/// The INS trajectory of a recording alone (info --bag on a bag without LiDAR, stitch).
+struct BagTrajectory {
+  PoseStream poses;                      ///< T_world_ins, recentred on the first position
+  Vec3 world_origin_m = Vec3::Zero();    ///< subtracted from the positions (as Dataset)
+  std::vector<InsQuality> ins_quality;   ///< empty when the source states nothing
+  std::optional<LocalEnu> enu;           ///< geodetic sources: the world frame
+  InsReport report;
+  std::vector<std::string> warnings;     ///< container, then INS
 };
 
 struct BagReport {
@@ -116,11 +130,20 @@ BagDatasets load_bag(const BagOptions& options);
 /// The same over a reader already open (tests wrap readers; `options.path` is unused).
 BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options);
 
+/// Only the INS source (no LiDAR topic needed): lidar_topics, init and fiducials are unused.
+BagTrajectory load_bag_trajectory(const BagOptions& options);
+BagTrajectory load_bag_trajectory(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options);
+
 /// The existing load report of one LiDAR (frames, time field, frame time source, pose format).
 LoadReport to_load_report(const BagReport& report, std::size_t lidar = 0);
 
 /// What `insalign info --bag` prints: container, LiDAR topics, INS source, clocks, warnings.
 std::string describe_bag(const BagReport& report);
+/// Every topic of a recording with its type, count and what insalign does with it; the
+/// container, its record time range and warnings (works on any bag).
+std::string describe_recording(const bag::BagReader& reader);
+/// The INS source and its first and last poses (in the source's world, not recentred).
+std::string describe_trajectory(const BagTrajectory& trajectory);
 
 /// Fiducials for a dataset: "id x y z" in the world frame, or after a "# wgs84" first line
 /// "id lat_deg lon_deg ellipsoidal_height_m" placed in `enu` (InputError without one: the INS

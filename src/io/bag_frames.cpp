@@ -1,8 +1,5 @@
 #include "io/bag_frames.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -24,7 +21,6 @@ constexpr std::size_t kSampledClouds = 5;         // first, quartiles, last
 constexpr std::size_t kStampPrefixBytes = 64;     // encapsulation + seq + stamp, with room to spare
 constexpr double kStampToEndTolerance_s = 0.003;  // sampled offsets varying more: frame times uncertain
 constexpr double kSameStamp_s = 1e-6;
-constexpr std::size_t kStampGrain = 64;
 
 std::string where_of(const BagReader& r, std::uint32_t topic, std::size_t i) {
   return fmt::format("{} {} message {}", r.path().string(), r.topics()[topic].name, i);
@@ -96,47 +92,56 @@ void learn_from_samples(const BagReader& r, std::uint32_t topic, const std::vect
 
 }  // namespace
 
-LidarFrames index_lidar_topic(const BagReader& r, std::uint32_t topic, BagCounters& counters) {
+LidarTopicIndexer::LidarTopicIndexer(const BagReader& r, std::uint32_t topic, BagCounters& counters) : reader_(r) {
   const Topic& t = r.topics()[topic];
-  LidarFrames out;
-  out.topic = topic;
-  out.report.topic = t.name;
-  out.report.name = lidar_name(t.name);
-  out.report.type = t.type;
-  out.report.messages = t.message_count;
-  out.warnings = check_definition(t, r.path().string()).warnings;
+  out_.topic = topic;
+  out_.report.topic = t.name;
+  out_.report.name = lidar_name(t.name);
+  out_.report.type = t.type;
+  out_.report.messages = t.message_count;
+  out_.warnings = check_definition(t, r.path().string()).warnings;
   const std::vector<MessageRef> refs = r.messages(topic);
   if (refs.empty()) throw InputError(r.path().string(), "", t.name + " has no messages");
-  learn_from_samples(r, topic, refs, out, counters);
+  learn_from_samples(r, topic, refs, out_, counters);
+  frames_.resize(refs.size());
+  lag_.resize(refs.size());
+}
 
-  std::vector<CloudFrame> frames(refs.size());
-  std::vector<double> lag(refs.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, refs.size(), kStampGrain), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const std::vector<std::uint8_t> prefix = r.read_prefix(refs[i], kStampPrefixBytes);
-      const double stamp_s = read_stamp_s(prefix, t.encoding, where_of(r, topic, i));
-      frames[i] = {refs[i], stamp_s, stamp_s + out.report.stamp_to_end_s};
-      lag[i] = frames[i].t_end_s - static_cast<double>(refs[i].log_time_ns) * 1e-9;
-    }
-  });
-  out.report.stamp_minus_record_s = median_of(lag);
+TopicPass LidarTopicIndexer::pass() {
+  const std::uint32_t topic = out_.topic;
+  return {topic, kStampPrefixBytes, [this, topic](std::size_t i, const MessageRef& ref, Bytes prefix) {
+            const double stamp_s = read_stamp_s(prefix, reader_.topics()[topic].encoding, where_of(reader_, topic, i));
+            frames_[i] = {ref, stamp_s, stamp_s + out_.report.stamp_to_end_s};
+            lag_[i] = frames_[i].t_end_s - static_cast<double>(ref.log_time_ns) * 1e-9;
+          }};
+}
+
+LidarFrames LidarTopicIndexer::finish() {
+  const std::string& name = out_.report.topic;
+  out_.report.stamp_minus_record_s = median_of(lag_);
   const auto by_time = [](const CloudFrame& a, const CloudFrame& b) { return a.t_end_s < b.t_end_s; };
-  if (!std::is_sorted(frames.begin(), frames.end(), by_time)) {
-    out.warnings.push_back(t.name + ": header stamps are not in record order; frames sorted by stamp");
-    std::stable_sort(frames.begin(), frames.end(), by_time);
+  if (!std::is_sorted(frames_.begin(), frames_.end(), by_time)) {
+    out_.warnings.push_back(name + ": header stamps are not in record order; frames sorted by stamp");
+    std::stable_sort(frames_.begin(), frames_.end(), by_time);
   }
-  for (const CloudFrame& f : frames) {
-    if (!out.frames.empty() && f.t_end_s - out.frames.back().t_end_s < kSameStamp_s) {
-      ++out.report.frames_duplicate;
+  for (const CloudFrame& f : frames_) {
+    if (!out_.frames.empty() && f.t_end_s - out_.frames.back().t_end_s < kSameStamp_s) {
+      ++out_.report.frames_duplicate;
     } else {
-      out.frames.push_back(f);
+      out_.frames.push_back(f);
     }
   }
-  if (out.report.frames_duplicate > 0) {
-    out.warnings.push_back(fmt::format("{}: skipped {} clouds with the stamp of the cloud before", t.name,
-                                       out.report.frames_duplicate));
+  if (out_.report.frames_duplicate > 0) {
+    out_.warnings.push_back(fmt::format("{}: skipped {} clouds with the stamp of the cloud before", name,
+                                        out_.report.frames_duplicate));
   }
-  return out;
+  return std::move(out_);
+}
+
+LidarFrames index_lidar_topic(const BagReader& r, std::uint32_t topic, BagCounters& counters) {
+  LidarTopicIndexer indexer(r, topic, counters);
+  read_in_record_order(r, {indexer.pass()});
+  return indexer.finish();
 }
 
 FrameSource make_frame_source(std::shared_ptr<const BagReader> reader, std::uint32_t topic,

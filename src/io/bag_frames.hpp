@@ -15,6 +15,7 @@
 #include "core/dataset.hpp"
 #include "io/bag/bag_reader.hpp"
 #include "io/bag/pointcloud2.hpp"
+#include "io/bag_scan.hpp"
 
 namespace insalign::io {
 
@@ -55,8 +56,24 @@ struct LidarFrames {
   std::vector<std::string> warnings;
 };
 
-/// Indexes one PointCloud2 topic. Throws InputError for a cloud that does not decode (a missing
-/// x/y/z names the topic and message), a definition that does not match, or no messages.
+/// Indexes one PointCloud2 topic in two steps, so that the stamps can share one pass over the bag
+/// with the INS messages (bag_scan.hpp): the constructor decodes the sampled clouds, pass() reads
+/// every stamp, finish() orders the frames. Throws InputError for a cloud that does not decode (a
+/// missing x/y/z names the topic and message), a definition that does not match, or no messages.
+class LidarTopicIndexer {
+ public:
+  LidarTopicIndexer(const bag::BagReader& reader, std::uint32_t topic, BagCounters& counters);
+  TopicPass pass();  ///< valid while this lives
+  LidarFrames finish();
+
+ private:
+  const bag::BagReader& reader_;
+  LidarFrames out_;
+  std::vector<CloudFrame> frames_;
+  std::vector<double> lag_;
+};
+
+/// Both steps, with a pass of this topic alone.
 LidarFrames index_lidar_topic(const bag::BagReader& reader, std::uint32_t topic, BagCounters& counters);
 
 /// A FrameSource over `frames` (names = frame time, microseconds, as PCD frames are named):

@@ -1,13 +1,12 @@
 #include "io/bag_ins.hpp"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
+#include <functional>
 #include <map>
 #include <optional>
+#include <stdexcept>
 
 #include "core/errors.hpp"
 #include "io/bag/message_definitions.hpp"
@@ -22,7 +21,6 @@ using namespace bag;
 
 constexpr double kSameStamp_s = 1e-6;        // two records closer than this: the later is a duplicate
 constexpr double kMaxImuGap_s = 0.2;         // a fix is paired only between Imu samples this close
-constexpr std::size_t kDecodeGrain = 256;    // messages per parallel block (file order kept inside)
 
 /// One INS message as the source kinds share it.
 struct Decoded {
@@ -36,30 +34,7 @@ std::string where_of(const BagReader& r, std::uint32_t topic, std::size_t i) {
   return fmt::format("{} {} message {}", r.path().string(), r.topics()[topic].name, i);
 }
 
-// Every message of `topic` through decode(bytes, where), in parallel over contiguous blocks in
-// file order (so each block decompresses its chunks once); also header.stamp - record time.
-template <typename T, typename F>
-std::vector<T> decode_topic(const BagReader& r, std::uint32_t topic, F decode, std::vector<double>* stamp_minus_record = nullptr) {
-  const std::vector<MessageRef> refs = r.messages(topic);
-  std::vector<T> out(refs.size());
-  std::vector<double> lag(refs.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, refs.size(), kDecodeGrain), [&](const auto& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      const std::vector<std::uint8_t> bytes = r.read(refs[i]);
-      double t_s = 0.0;
-      out[i] = decode(Bytes(bytes), where_of(r, topic, i), t_s);
-      lag[i] = t_s - static_cast<double>(refs[i].log_time_ns) * 1e-9;
-    }
-  });
-  if (stamp_minus_record != nullptr) stamp_minus_record->insert(stamp_minus_record->end(), lag.begin(), lag.end());
-  return out;
-}
-
-std::vector<std::string> check(const BagReader& r, std::uint32_t topic, std::optional<Oem7Header::Layout>* layout = nullptr) {
-  const DefinitionCheck c = check_definition(r.topics()[topic], r.path().string());
-  if (layout != nullptr) *layout = c.oem7_layout;
-  return c.warnings;
-}
+using Decoder = std::function<Decoded(Bytes, const std::string&)>;
 
 bool oem7(const Topic& t) { return normalized_type(t.type).rfind("novatel_oem7_msgs/", 0) == 0; }
 
@@ -67,14 +42,10 @@ std::string status_key(const NovatelRecord& n) {
   return n.position_type.empty() ? n.ins_status : n.ins_status + " / " + n.position_type;
 }
 
-std::vector<Decoded> decode_novatel(const BagReader& r, std::uint32_t topic, bool inspvax, InsSource& out,
-                                    std::vector<double>& lag) {
-  std::optional<Oem7Header::Layout> layout;
-  for (std::string& w : check(r, topic, &layout)) out.track.warnings.push_back(std::move(w));
-  const Topic& t = r.topics()[topic];
+Decoder novatel_decoder(const Topic& t, bool inspvax, std::optional<Oem7Header::Layout> layout) {
   const MessageEncoding enc = t.encoding;
   const bool new_driver = oem7(t);
-  return decode_topic<Decoded>(r, topic, [&](Bytes b, const std::string& where, double& t_s) {
+  return [=](Bytes b, const std::string& where) {
     NovatelRecord n;
     Header h;
     if (new_driver && inspvax) {
@@ -90,9 +61,8 @@ std::vector<Decoded> decode_novatel(const BagReader& r, std::uint32_t topic, boo
       const NovatelGpsInspva m = decode_novatel_gps_inspva(b, enc, where);
       n = to_ins_record(m), h = m.header;
     }
-    t_s = n.record.t_s;
     return Decoded{n.record, status_key(n), h.frame_id, ""};
-  }, &lag);
+  };
 }
 
 const char* navsat_status_name(std::int8_t status) {
@@ -105,36 +75,26 @@ const char* navsat_status_name(std::int8_t status) {
   }
 }
 
-std::vector<Decoded> decode_fixes(const BagReader& r, std::uint32_t topic, InsSource& out, std::vector<double>& lag) {
-  for (std::string& w : check(r, topic)) out.track.warnings.push_back(std::move(w));
-  const MessageEncoding enc = r.topics()[topic].encoding;
-  return decode_topic<Decoded>(r, topic, [&](Bytes b, const std::string& where, double& t_s) {
+Decoder fix_decoder(MessageEncoding enc) {
+  return [enc](Bytes b, const std::string& where) {
     const NavSatFix m = decode_navsatfix(b, enc, where);
-    const InsRecord rec = to_ins_record(m);
-    t_s = rec.t_s;
-    return Decoded{rec, navsat_status_name(m.status), m.header.frame_id, ""};
-  }, &lag);
+    return Decoded{to_ins_record(m), navsat_status_name(m.status), m.header.frame_id, ""};
+  };
 }
 
-std::vector<Decoded> decode_cartesian(const BagReader& r, std::uint32_t topic, InsSourceKind kind, InsSource& out,
-                                      std::vector<double>& lag) {
-  for (std::string& w : check(r, topic)) out.track.warnings.push_back(std::move(w));
-  const MessageEncoding enc = r.topics()[topic].encoding;
-  return decode_topic<Decoded>(r, topic, [&](Bytes b, const std::string& where, double& t_s) {
-    Decoded d;
+Decoder cartesian_decoder(InsSourceKind kind, MessageEncoding enc) {
+  return [kind, enc](Bytes b, const std::string& where) {
     if (kind == InsSourceKind::kOdometry) {
       const Odometry m = decode_odometry(b, enc, where);
-      d = {to_ins_record(m, where), "", m.header.frame_id, m.child_frame_id};
-    } else if (kind == InsSourceKind::kPoseWithCovariance) {
-      const PoseWithCovarianceStamped m = decode_pose_with_covariance_stamped(b, enc, where);
-      d = {to_ins_record(m, where), "", m.header.frame_id, ""};
-    } else {
-      const PoseStamped m = decode_pose_stamped(b, enc, where);
-      d = {to_ins_record(m, where), "", m.header.frame_id, ""};
+      return Decoded{to_ins_record(m, where), "", m.header.frame_id, m.child_frame_id};
     }
-    t_s = d.rec.t_s;
-    return d;
-  }, &lag);
+    if (kind == InsSourceKind::kPoseWithCovariance) {
+      const PoseWithCovarianceStamped m = decode_pose_with_covariance_stamped(b, enc, where);
+      return Decoded{to_ins_record(m, where), "", m.header.frame_id, ""};
+    }
+    const PoseStamped m = decode_pose_stamped(b, enc, where);
+    return Decoded{to_ins_record(m, where), "", m.header.frame_id, ""};
+  };
 }
 
 // The most common value of a field over the messages, with a warning when they differ.
@@ -200,36 +160,20 @@ void pair_with_imu(std::vector<Decoded>& fixes, std::vector<ImuSample> imu, InsS
                      })->first;
 }
 
-std::vector<ImuSample> decode_imu(const BagReader& r, std::uint32_t topic, InsSource& out) {
-  for (std::string& w : check(r, topic)) out.track.warnings.push_back(std::move(w));
-  const MessageEncoding enc = r.topics()[topic].encoding;
-  return decode_topic<ImuSample>(r, topic, [&](Bytes b, const std::string& where, double& t_s) {
-    const Imu m = decode_imu(b, enc, where);
-    t_s = m.header.stamp.seconds();
-    return ImuSample{t_s, imu_orientation(m, where), m.header.frame_id};
-  });
+ImuSample decode_imu_sample(Bytes b, MessageEncoding enc, const std::string& where) {
+  const Imu m = decode_imu(b, enc, where);
+  return ImuSample{m.header.stamp.seconds(), imu_orientation(m, where), m.header.frame_id};
 }
 
-std::vector<TransformStamped> decode_transforms(const BagReader& r, std::uint32_t topic, InsSource& out,
-                                                std::vector<double>* lag) {
-  for (std::string& w : check(r, topic)) out.track.warnings.push_back(std::move(w));
-  const MessageEncoding enc = r.topics()[topic].encoding;
-  const auto messages = decode_topic<TFMessage>(r, topic, [&](Bytes b, const std::string& where, double& t_s) {
-    TFMessage m = decode_tf_message(b, enc, where);
-    t_s = m.transforms.empty() ? 0.0 : m.transforms.front().header.stamp.seconds();
-    return m;
-  }, lag);
+std::vector<TransformStamped> flatten(const std::vector<TFMessage>& messages) {
   std::vector<TransformStamped> all;
   for (const TFMessage& m : messages) all.insert(all.end(), m.transforms.begin(), m.transforms.end());
   return all;
 }
 
-std::vector<Decoded> read_tf(const BagReader& r, const InsSourceTopics& topics, const InsReadOptions& options,
-                             InsSource& out, std::vector<double>& lag) {
-  const std::vector<TransformStamped> moving = decode_transforms(r, topics.topic, out, &lag);
-  std::vector<TransformStamped> fixed;
-  if (topics.partner) fixed = decode_transforms(r, *topics.partner, out, nullptr);
-  TfChain chain = tf_chain(moving, fixed, options.world_frame, options.ins_frame, r.path().string());
+std::vector<Decoded> tf_records(const BagReader& r, const std::vector<TFMessage>& moving, const std::vector<TFMessage>& fixed,
+                                const InsReadOptions& options, InsSource& out) {
+  TfChain chain = tf_chain(flatten(moving), flatten(fixed), options.world_frame, options.ins_frame, r.path().string());
   for (std::string& w : chain.warnings) out.track.warnings.push_back(std::move(w));
   if (chain.samples_outside > 0) {
     out.track.warnings.push_back(fmt::format("TF: {} stamps of the chain skipped: another moving link had no data there",
@@ -243,10 +187,29 @@ std::vector<Decoded> read_tf(const BagReader& r, const InsSourceTopics& topics, 
   return d;
 }
 
+// A record no frame can use: a value not finite, a latitude or longitude out of range.
+bool usable(const InsRecord& r, bool geodetic) {
+  if (!std::isfinite(r.t_s) || !r.R_world_ins.allFinite()) return false;
+  if (!geodetic) return r.p_world_m.allFinite();
+  try {
+    check_geodetic({r.lat_deg, r.lon_deg, r.height_m});
+  } catch (const std::invalid_argument&) {
+    return false;
+  }
+  return true;
+}
+
 // Time shift, time order, duplicates and records the source marks invalid; status counts.
 void finish_records(std::vector<Decoded>& d, const InsReadOptions& options, InsSource& out) {
   for (Decoded& x : d) x.rec.t_s += options.time_shift_s;
-  std::erase_if(d, [](const Decoded& x) { return !std::isfinite(x.rec.t_s); });
+  const std::size_t before = d.size();
+  std::erase_if(d, [&](const Decoded& x) { return !usable(x.rec, out.track.geodetic); });
+  out.records_unusable = before - d.size();
+  if (out.records_unusable > 0) {
+    out.track.warnings.push_back(fmt::format("dropped {} INS records holding values that are not finite or a latitude or "
+                                             "longitude out of range",
+                                             out.records_unusable));
+  }
   if (!std::is_sorted(d.begin(), d.end(), [](const Decoded& a, const Decoded& b) { return a.rec.t_s < b.rec.t_s; })) {
     out.track.warnings.push_back("INS stamps are not in record order; sorted by header.stamp");
     std::stable_sort(d.begin(), d.end(), [](const Decoded& a, const Decoded& b) { return a.rec.t_s < b.rec.t_s; });
@@ -274,7 +237,7 @@ void finish_records(std::vector<Decoded>& d, const InsReadOptions& options, InsS
     out.track.warnings.push_back(fmt::format("dropped {} INS records with the stamp of the one before", out.records_duplicate));
   }
   out.track.records = std::move(kept);
-  out.track.records_skipped = out.records_invalid + out.records_duplicate + out.records_unpaired;
+  out.track.records_skipped = out.records_invalid + out.records_duplicate + out.records_unpaired + out.records_unusable;
 }
 
 void describe_frames(InsSource& out, const std::vector<Decoded>& d) {
@@ -319,22 +282,6 @@ void describe_frames(InsSource& out, const std::vector<Decoded>& d) {
   if (!t.geodetic) t.height_datum = "none (cartesian)";
 }
 
-std::vector<Decoded> read_records(const BagReader& r, const InsSourceTopics& topics, const InsReadOptions& options,
-                                  InsSource& out, std::vector<double>& lag) {
-  switch (topics.kind) {
-    case InsSourceKind::kInspvax:
-    case InsSourceKind::kInspva:
-      return decode_novatel(r, topics.topic, topics.kind == InsSourceKind::kInspvax, out, lag);
-    case InsSourceKind::kNavSatFixImu: {
-      std::vector<Decoded> fixes = decode_fixes(r, topics.topic, out, lag);
-      pair_with_imu(fixes, decode_imu(r, *topics.partner, out), out, r.path().string());
-      return fixes;
-    }
-    case InsSourceKind::kTf: return read_tf(r, topics, options, out, lag);
-    default: return decode_cartesian(r, topics.topic, topics.kind, out, lag);
-  }
-}
-
 }  // namespace
 
 double median_of(std::vector<double>& values) {
@@ -344,8 +291,28 @@ double median_of(std::vector<double>& values) {
   return *mid;
 }
 
-InsSource read_ins_source(const BagReader& reader, const InsSourceTopics& topics, const InsReadOptions& options) {
+struct InsSourceReader::State {
+  const BagReader& r;
+  InsSourceTopics topics;
+  InsReadOptions options;
   InsSource out;
+  std::vector<Decoded> main;       ///< INSPVA(X), NavSatFix, Odometry, Pose*: one per message
+  std::vector<double> lag;         ///< header.stamp - record time, main topic (TF: /tf)
+  std::vector<ImuSample> imu;
+  std::vector<TFMessage> tf_moving, tf_fixed;
+
+  void check(std::uint32_t topic, std::optional<Oem7Header::Layout>* layout = nullptr) {
+    const DefinitionCheck c = check_definition(r.topics()[topic], r.path().string());
+    if (layout != nullptr) *layout = c.oem7_layout;
+    out.track.warnings.insert(out.track.warnings.end(), c.warnings.begin(), c.warnings.end());
+  }
+  std::size_t count(std::uint32_t topic) const { return r.messages(topic).size(); }
+  double record_s(const MessageRef& ref) const { return static_cast<double>(ref.log_time_ns) * 1e-9; }
+};
+
+InsSourceReader::InsSourceReader(const BagReader& reader, const InsSourceTopics& topics, const InsReadOptions& options)
+    : s_(std::make_unique<State>(State{reader, topics, options, {}, {}, {}, {}, {}, {}})) {
+  InsSource& out = s_->out;
   out.kind = topics.kind;
   out.not_used = topics.not_used;
   for (auto id : {std::optional<std::uint32_t>(topics.topic), topics.partner}) {
@@ -354,22 +321,89 @@ InsSource read_ins_source(const BagReader& reader, const InsSourceTopics& topics
     out.types.push_back(reader.topics()[*id].type);
     out.messages += reader.topics()[*id].message_count;
   }
-  std::vector<double> lag;
-  std::vector<Decoded> d = read_records(reader, topics, options, out, lag);
-  out.stamp_minus_record_s = median_of(lag) + options.time_shift_s;
+}
+
+InsSourceReader::~InsSourceReader() = default;
+
+std::vector<TopicPass> InsSourceReader::passes() {
+  State& s = *s_;
+  const std::uint32_t main = s.topics.topic;
+  const MessageEncoding enc = s.r.topics()[main].encoding;
+  std::vector<TopicPass> out;
+  s.lag.assign(s.count(main), 0.0);
+  if (s.topics.kind == InsSourceKind::kTf) {
+    s.check(main);
+    s.tf_moving.resize(s.lag.size());
+    out.push_back({main, 0, [&s, enc, main](std::size_t i, const MessageRef& ref, Bytes b) {
+                     s.tf_moving[i] = decode_tf_message(b, enc, where_of(s.r, main, i));
+                     const auto& t = s.tf_moving[i].transforms;
+                     s.lag[i] = t.empty() ? 0.0 : t.front().header.stamp.seconds() - s.record_s(ref);
+                   }});
+    if (s.topics.partner) {
+      const std::uint32_t fixed = *s.topics.partner;
+      s.check(fixed);
+      s.tf_fixed.resize(s.count(fixed));
+      out.push_back({fixed, 0, [&s, enc, fixed](std::size_t i, const MessageRef&, Bytes b) {
+                       s.tf_fixed[i] = decode_tf_message(b, enc, where_of(s.r, fixed, i));
+                     }});
+    }
+    return out;
+  }
+  Decoder decode;
+  if (s.topics.kind == InsSourceKind::kInspvax || s.topics.kind == InsSourceKind::kInspva) {
+    std::optional<Oem7Header::Layout> layout;
+    s.check(main, &layout);
+    decode = novatel_decoder(s.r.topics()[main], s.topics.kind == InsSourceKind::kInspvax, layout);
+  } else if (s.topics.kind == InsSourceKind::kNavSatFixImu) {
+    s.check(main);
+    decode = fix_decoder(enc);
+  } else {
+    s.check(main);
+    decode = cartesian_decoder(s.topics.kind, enc);
+  }
+  s.main.resize(s.lag.size());
+  out.push_back({main, 0, [&s, decode, main](std::size_t i, const MessageRef& ref, Bytes b) {
+                   s.main[i] = decode(b, where_of(s.r, main, i));
+                   s.lag[i] = s.main[i].rec.t_s - s.record_s(ref);
+                 }});
+  if (s.topics.kind == InsSourceKind::kNavSatFixImu) {
+    const std::uint32_t imu = *s.topics.partner;
+    const MessageEncoding imu_enc = s.r.topics()[imu].encoding;
+    s.check(imu);
+    s.imu.resize(s.count(imu));
+    out.push_back({imu, 0, [&s, imu, imu_enc](std::size_t i, const MessageRef&, Bytes b) {
+                     s.imu[i] = decode_imu_sample(b, imu_enc, where_of(s.r, imu, i));
+                   }});
+  }
+  return out;
+}
+
+InsSource InsSourceReader::finish() {
+  State& s = *s_;
+  InsSource& out = s.out;
+  std::vector<Decoded> d = std::move(s.main);
+  if (s.topics.kind == InsSourceKind::kNavSatFixImu) pair_with_imu(d, std::move(s.imu), out, s.r.path().string());
+  if (s.topics.kind == InsSourceKind::kTf) d = tf_records(s.r, s.tf_moving, s.tf_fixed, s.options, out);
+  out.stamp_minus_record_s = median_of(s.lag) + s.options.time_shift_s;
   describe_frames(out, d);
-  finish_records(d, options, out);
+  finish_records(d, s.options, out);
   InsTrack& t = out.track;
   for (std::size_t i = 0; i < out.topics.size(); ++i) t.source += (i ? " + " : "") + out.topics[i];
   for (std::size_t i = 0; i < out.types.size(); ++i) t.format += (i ? " + " : "") + out.types[i];
   t.time_base = "header.stamp (the INS driver's clock)" +
-                (options.time_shift_s != 0.0 ? fmt::format(" + {} s", options.time_shift_s) : std::string());
+                (s.options.time_shift_s != 0.0 ? fmt::format(" + {} s", s.options.time_shift_s) : std::string());
   if (t.records.size() < 2) {
-    throw InputError(reader.path().string(), "",
+    throw InputError(s.r.path().string(), "",
                      fmt::format("the INS source {} ({}) gives {} usable record(s) of {} messages: too few for a trajectory",
                                  t.source, t.format, t.records.size(), out.messages));
   }
-  return out;
+  return std::move(out);
+}
+
+InsSource read_ins_source(const BagReader& reader, const InsSourceTopics& topics, const InsReadOptions& options) {
+  InsSourceReader ins(reader, topics, options);
+  read_in_record_order(reader, ins.passes());
+  return ins.finish();
 }
 
 }  // namespace insalign::io

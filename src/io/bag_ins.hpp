@@ -10,11 +10,13 @@
 
 #include <cstddef>
 #include <limits>
+#include <memory>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "io/bag/bag_reader.hpp"
+#include "io/bag_scan.hpp"
 #include "io/bag_topics.hpp"
 #include "io/ins/ins_track.hpp"
 
@@ -38,15 +40,33 @@ struct InsSource {
   std::size_t records_invalid = 0;     ///< dropped: the source marks them unusable
   std::size_t records_duplicate = 0;   ///< dropped: same stamp as the record before
   std::size_t records_unpaired = 0;    ///< NavSatFix + Imu: fixes with no Imu orientation near them
+  std::size_t records_unusable = 0;    ///< dropped: values not finite, latitude or longitude out of range
   /// Median of header.stamp - record time over the messages (s): compared with the LiDAR's to
   /// tell a clock difference from a late start.
   double stamp_minus_record_s = std::numeric_limits<double>::quiet_NaN();
   std::vector<std::string> not_used;   ///< other INS topics of the bag
 };
 
-/// Reads the chosen source. Throws InputError(bag path or "path topic message N", location, what)
-/// for undecodable messages, a definition that does not match, no usable record, an ambiguous TF
-/// chain.
+/// The chosen source read in two steps, so that its messages can share one pass over the bag with
+/// the clouds' stamps (bag_scan.hpp): run passes(), then finish(). Throws InputError(bag path or
+/// "path topic message N", location, what) for undecodable messages, a definition that does not
+/// match, no usable record, an ambiguous TF chain.
+class InsSourceReader {
+ public:
+  InsSourceReader(const bag::BagReader& reader, const InsSourceTopics& topics, const InsReadOptions& options);
+  ~InsSourceReader();
+  InsSourceReader(const InsSourceReader&) = delete;
+  InsSourceReader& operator=(const InsSourceReader&) = delete;
+  /// The topics to read whole, each message decoded by its handler (valid while this lives).
+  std::vector<TopicPass> passes();
+  InsSource finish();
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
+};
+
+/// Both steps, with a pass of the INS topics alone.
 InsSource read_ins_source(const bag::BagReader& reader, const InsSourceTopics& topics, const InsReadOptions& options);
 
 /// Median of values (NaN for none); `values` is reordered.

@@ -12,6 +12,7 @@
 #include <stdexcept>
 
 #include "sim/random.hpp"
+#include "sim/rig.hpp"
 #include "sim/scene.hpp"
 #include "sim/trajectory.hpp"
 #include "sim/traffic.hpp"
@@ -57,6 +58,8 @@ void validate(const SimConfig& c) {
   validate_ins_error(c.ins_error);
   if (c.traffic < 0 || c.traffic > 500 || c.pedestrians < 0 || c.pedestrians > 500)
     fail("traffic and pedestrian counts must be in [0, 500]");
+  if (!(c.rig_clock_spread_s >= 0.0 && c.rig_clock_spread_s <= 0.5)) fail("rig clock spread must be in [0, 0.5] s");
+  if (!c.rig.empty()) parse_rig(c.rig);  // throws naming the bad entry
 }
 
 // Random roof mount, physically placed: INS near the rear axle, LiDAR on the roof.
@@ -102,22 +105,87 @@ std::vector<Fiducial> place_fiducials(const SimConfig& c, const Scene& scene, co
   return out;
 }
 
-// Movers around the driven path, avoiding the ego's body (x from -1.1 to 3.6 m of the INS, the
-// INS near the rear axle) over the whole drive.
+// Frame (sweep end) times on a LiDAR's clock: one per period from the start of the motion, the
+// first `phase_s` later; as many as the drive holds (or the requested duration).
+std::vector<double> frame_times(const SimConfig& c, double rate_hz, double phase_s, double trajectory_s) {
+  const double period_s = 1.0 / rate_hz;
+  std::size_t n = c.duration_s > 0.0 ? static_cast<std::size_t>(std::llround(c.duration_s * rate_hz))
+                                     : static_cast<std::size_t>(std::floor(trajectory_s * rate_hz));
+  n = std::max<std::size_t>(1, n);
+  std::vector<double> out;
+  for (std::size_t k = 0; k < n; ++k) out.push_back(kEpochS + phase_s + (k + 1) * period_s);
+  return out;
+}
+
+// Initial guess: exactly the requested errors, in random directions (error as CONVENTIONS.md).
+Iso3 perturbed(const SimConfig& c, const Iso3& T_true, Rng& rng) {
+  const Vec3 axis = rng.unit_vector();
+  const Vec3 dir = rng.unit_vector();
+  Iso3 T = Iso3::Identity();
+  T.linear() = so3_exp(axis * c.init_rot_err_deg * kRadPerDeg) * T_true.linear();
+  T.translation() = T_true.translation() + c.init_trans_err_m * dir;
+  return T;
+}
+
+// The single LiDAR (no rig): a random roof mount unless given, the simulation's own clock offset,
+// spinning from behind the sensor, frames on the period grid.
+SimLidar single_lidar(const SimConfig& c, double ins_height_m, const Iso3& T_vehicle_ins, double trajectory_s) {
+  SimLidar l;
+  l.model = lidar_model(c.lidar_model);
+  Rng mount_rng(hash_counters(c.seed, 0x3057));
+  l.T_ins_lidar_true = c.T_ins_lidar ? *c.T_ins_lidar : random_mount(mount_rng, ins_height_m, T_vehicle_ins);
+  l.T_ins_lidar_init = perturbed(c, l.T_ins_lidar_true, mount_rng);
+  l.time_offset_s = c.time_offset_s;
+  l.frame_rate_hz = c.frame_rate_hz;
+  l.start_azimuth_rad = kPi;
+  l.noise_seed = c.seed;
+  l.frame_times_s = frame_times(c, c.frame_rate_hz, 0.0, trajectory_s);
+  return l;
+}
+
+// Rig LiDARs: each its own mount (preset, randomised), clock offset, spin phase and frame phase,
+// all from its own random stream so adding a LiDAR does not move the others.
+std::vector<SimLidar> rig_lidars(const SimConfig& c, double ins_height_m, const Iso3& T_vehicle_ins, double trajectory_s) {
+  std::vector<SimLidar> out;
+  const std::vector<RigLidarSpec> specs = parse_rig(c.rig);
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    Rng rng(hash_counters(c.seed, 0x716, i));
+    SimLidar l;
+    l.name = specs[i].name;
+    l.mount = specs[i].mount;
+    l.model = lidar_model(specs[i].model);
+    const Iso3 T_vehicle_lidar = random_vehicle_mount(specs[i].mount, rng, ins_height_m);
+    l.T_ins_lidar_true = i == 0 && c.T_ins_lidar ? *c.T_ins_lidar : T_vehicle_ins.inverse() * T_vehicle_lidar;
+    l.T_ins_lidar_init = perturbed(c, l.T_ins_lidar_true, rng);
+    l.time_offset_s = c.time_offset_s + rng.uniform(-c.rig_clock_spread_s, c.rig_clock_spread_s);
+    l.frame_rate_hz = specs[i].frame_rate_hz > 0.0 ? specs[i].frame_rate_hz : c.frame_rate_hz;
+    l.start_azimuth_rad = rng.uniform(-kPi, kPi);
+    const double phase_s = rng.uniform(0.0, 1.0 / l.frame_rate_hz);
+    l.noise_seed = hash_counters(c.seed, 0x716, i, 1);
+    l.frame_times_s = frame_times(c, l.frame_rate_hz, phase_s, trajectory_s);
+    out.push_back(std::move(l));
+  }
+  return out;
+}
+
+// Movers around the driven path, avoiding the ego's body (EgoBody) over the whole drive.
 Traffic build_traffic(const World& w, const std::vector<Vec2>& path_xy) {
   TrafficRequest request;
   request.vehicles = w.config.traffic;
   request.people = w.config.pedestrians;
   request.path_xy = path_xy;
   request.t_begin_s = kEpochS;
-  request.t_end_s = w.frame_times_s.back() + std::abs(w.config.time_offset_s);
+  request.t_end_s = kEpochS;  // the last sweep of any LiDAR, on the INS clock
+  for (const SimLidar& l : w.lidars) request.t_end_s = std::max(request.t_end_s, l.frame_times_s.back() + std::abs(l.time_offset_s));
   request.seed = hash_counters(w.config.seed, 0x7AFF1C);
   EgoFootprint ego;
   const Iso3 T_ins_vehicle = w.T_vehicle_ins.inverse();
-  ego.pose = [&w, T_ins_vehicle](double t_s) {
+  const Box body = EgoBody::box(w.ins_height_m);
+  ego.half_m = body.half_m.head<2>();
+  ego.pose = [&w, T_ins_vehicle, body](double t_s) {
     const double t = std::clamp(t_s, w.poses_true.t_begin(), w.poses_true.t_end());
     const Iso3 T_world_vehicle = w.poses_true.T_world_ins(t) * T_ins_vehicle;
-    const Vec3 c = T_world_vehicle * Vec3(1.25, 0.0, 0.0);
+    const Vec3 c = T_world_vehicle * Vec3(body.center_m.x(), 0.0, 0.0);
     const Vec3 x = T_world_vehicle.linear().col(0);
     return MoverPose{c.head<2>(), std::atan2(x.y(), x.x())};
   };
@@ -139,33 +207,6 @@ void build_ins_error(World& w) {
 
 }  // namespace
 
-LidarModel lidar_model(const std::string& name) {
-  LidarModel m;
-  m.name = name;
-  if (name == "pandar64") {
-    // Sparse at the top and bottom, a dense band (1/6 deg) around the horizon.
-    for (double e : {15.0, 11.0, 8.0, 5.0, 3.0}) m.elevation_deg.push_back(e);
-    for (int i = 0; i <= 48; ++i) m.elevation_deg.push_back(2.0 - i / 6.0);
-    for (double e : {-7.0, -8.0, -9.0, -10.0, -11.0, -12.0, -13.0, -14.0, -19.0, -25.0}) m.elevation_deg.push_back(e);
-  } else if (name == "hdl32") {
-    for (int i = 0; i < 32; ++i) m.elevation_deg.push_back(10.67 - i * (41.34 / 31.0));
-  } else if (name == "os1-64") {
-    for (int i = 0; i < 64; ++i) m.elevation_deg.push_back(16.6 - i * (33.2 / 63.0));
-  } else if (name == "vlp16") {
-    // 16 rings 2 deg apart: few rings on the ground and on each wall, the sparsest common sensor.
-    for (int i = 0; i < 16; ++i) m.elevation_deg.push_back(15.0 - 2.0 * i);
-  } else {
-    std::string names;
-    for (const std::string& n : lidar_model_names()) {
-      if (!names.empty()) names += ", ";
-      names += n;
-    }
-    throw std::invalid_argument("unknown LiDAR model '" + name + "' (" + names + ")");
-  }
-  return m;
-}
-
-std::vector<std::string> lidar_model_names() { return {"pandar64", "hdl32", "os1-64", "vlp16"}; }
 
 std::string frame_name(double t_s) {
   char buf[64];
@@ -177,41 +218,26 @@ World build_world(const SimConfig& config) {
   validate(config);
   World w;
   w.config = config;
-  w.lidar = lidar_model(config.lidar_model);
   Rng rng(config.seed);
   const Trajectory trajectory(config, rng);
   const Iso3 T_vehicle_ins = vehicle_from_ins(config.ins_axes);
   w.ins_height_m = trajectory.ins_height_m();
 
-  Rng mount_rng(hash_counters(config.seed, 0x3057));
-  w.T_ins_lidar_true = config.T_ins_lidar ? *config.T_ins_lidar : random_mount(mount_rng, w.ins_height_m, T_vehicle_ins);
-  // Initial guess: exactly the requested errors, in random directions (error as CONVENTIONS.md).
-  const Vec3 axis = mount_rng.unit_vector();
-  const Vec3 dir = mount_rng.unit_vector();
-  w.T_ins_lidar_init = Iso3::Identity();
-  w.T_ins_lidar_init.linear() = so3_exp(axis * config.init_rot_err_deg * kRadPerDeg) * w.T_ins_lidar_true.linear();
-  w.T_ins_lidar_init.translation() = w.T_ins_lidar_true.translation() + config.init_trans_err_m * dir;
-
-  const double period_s = 1.0 / config.frame_rate_hz;
-  std::size_t n_frames = config.duration_s > 0.0
-                             ? static_cast<std::size_t>(std::llround(config.duration_s * config.frame_rate_hz))
-                             : static_cast<std::size_t>(std::floor(trajectory.duration_s() * config.frame_rate_hz));
-  n_frames = std::max<std::size_t>(1, n_frames);
-  for (std::size_t k = 0; k < n_frames; ++k) w.frame_times_s.push_back(kEpochS + (k + 1) * period_s);
-  SimLidar primary;
-  primary.model = w.lidar;
-  primary.T_ins_lidar_true = w.T_ins_lidar_true;
-  primary.T_ins_lidar_init = w.T_ins_lidar_init;
-  primary.time_offset_s = config.time_offset_s;
-  primary.frame_rate_hz = config.frame_rate_hz;
-  primary.start_azimuth_rad = kPi;  // starting behind the sensor
-  primary.noise_seed = config.seed;
-  primary.frame_times_s = w.frame_times_s;
-  w.lidars = {primary};
+  w.lidars = config.rig.empty() ? std::vector<SimLidar>{single_lidar(config, w.ins_height_m, T_vehicle_ins, trajectory.duration_s())}
+                                : rig_lidars(config, w.ins_height_m, T_vehicle_ins, trajectory.duration_s());
+  const SimLidar& first = w.lidars.front();
+  w.lidar = first.model;
+  w.T_ins_lidar_true = first.T_ins_lidar_true;
+  w.T_ins_lidar_init = first.T_ins_lidar_init;
+  w.frame_times_s = first.frame_times_s;
 
   // Truth on the INS clock, dense, covering every sweep through the offset with a margin.
-  const double pad_s = 1.0 + std::abs(config.time_offset_s);
-  const double t_last = std::max(w.frame_times_s.back(), kEpochS + trajectory.duration_s());
+  double max_offset_s = 0.0, t_last = kEpochS + trajectory.duration_s();
+  for (const SimLidar& l : w.lidars) {
+    max_offset_s = std::max(max_offset_s, std::abs(l.time_offset_s));
+    t_last = std::max(t_last, l.frame_times_s.back());
+  }
+  const double pad_s = 1.0 + max_offset_s;
   const long long i0 = static_cast<long long>(std::floor(-pad_s * kTruthRateHz));
   const long long i1 = static_cast<long long>(std::ceil((t_last - kEpochS + pad_s) * kTruthRateHz));
   std::vector<StampedPose> truth;
@@ -295,31 +321,35 @@ std::vector<StampedPose> reported_poses(const World& world, const std::vector<do
   return out;
 }
 
-std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s) {
-  return reported_poses(world, t_end_s, kStreamFramePoses);
+std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s, std::size_t lidar) {
+  // Each LiDAR's pose file draws its own white noise (the first one's as before rigs existed).
+  return reported_poses(world, t_end_s, lidar == 0 ? kStreamFramePoses : kStreamFramePoses + 0x100 * lidar);
 }
 
 std::vector<StampedPose> dense_reported_poses(const World& world, double rate_hz) {
-  const double period_s = 1.0 / world.config.frame_rate_hz;
-  const double margin_s = std::abs(world.config.time_offset_s) + 0.2;
-  const double lo = std::max(world.poses_true.t_begin(), world.frame_times_s.front() - period_s - margin_s);
-  const double hi = std::min(world.poses_true.t_end(), world.frame_times_s.back() + margin_s);
+  double lo = world.poses_true.t_end(), hi = world.poses_true.t_begin();
+  for (const SimLidar& l : world.lidars) {  // every sweep of every LiDAR, through its offset
+    const double period_s = 1.0 / l.frame_rate_hz;
+    const double margin_s = std::abs(l.time_offset_s) + 0.2;
+    lo = std::min(lo, std::max(world.poses_true.t_begin(), l.frame_times_s.front() - period_s - margin_s));
+    hi = std::max(hi, std::min(world.poses_true.t_end(), l.frame_times_s.back() + margin_s));
+  }
   std::vector<double> times;
   for (long long i = static_cast<long long>(std::ceil(lo * rate_hz)); static_cast<double>(i) / rate_hz <= hi; ++i)
     times.push_back(static_cast<double>(i) / rate_hz);
   return reported_poses(world, times, kStreamDensePoses);
 }
 
-SimDataset simulate(const SimConfig& config, const std::function<void(std::size_t, std::size_t)>& progress) {
-  const World world = build_world(config);
+SimDataset simulate_lidar(const World& world, std::size_t lidar, const std::function<void(std::size_t, std::size_t)>& progress) {
+  const SimLidar& l = world.lidars.at(lidar);
   SimDataset out;
-  const std::size_t n = world.frame_count();
+  const std::size_t n = l.frame_times_s.size();
   out.sweeps.resize(n);
+  out.hit_mover.resize(n);
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
-  out.hit_mover.resize(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-    out.sweeps[k] = render_sweep(world, k, &out.hit_mover[k]);
+    out.sweeps[k] = render_lidar_sweep(world, lidar, k, &out.hit_mover[k]);
     const std::size_t d = ++done;
     if (progress) {
       std::lock_guard<std::mutex> lock(progress_mutex);
@@ -328,16 +358,20 @@ SimDataset simulate(const SimConfig& config, const std::function<void(std::size_
   });
   std::vector<double> t_end;
   for (const Sweep& s : out.sweeps) t_end.push_back(s.t_end_s);
-  out.poses = PoseStream(frame_poses(world, t_end));
+  out.poses = PoseStream(frame_poses(world, t_end, lidar));
   out.poses_true = world.poses_true;
-  out.T_ins_lidar_true = world.T_ins_lidar_true;
-  out.T_ins_lidar_init = world.T_ins_lidar_init;
-  out.time_offset_s = config.time_offset_s;
+  out.T_ins_lidar_true = l.T_ins_lidar_true;
+  out.T_ins_lidar_init = l.T_ins_lidar_init;
+  out.time_offset_s = l.time_offset_s;
   out.fiducials = world.fiducials;
   out.ins_height_m = world.ins_height_m;
   out.ins_events = world.ins_events;
   out.ins_quality = ins_quality_series(world, t_end);
   return out;
+}
+
+SimDataset simulate(const SimConfig& config, const std::function<void(std::size_t, std::size_t)>& progress) {
+  return simulate_lidar(build_world(config), 0, progress);
 }
 
 Dataset to_dataset(const SimDataset& sim) {

@@ -15,6 +15,7 @@
 #include "core/pose_stream.hpp"
 #include "core/sweep.hpp"
 #include "sim/ins_error.hpp"
+#include "sim/lidar_model.hpp"
 
 namespace insalign::sim {
 
@@ -36,7 +37,7 @@ struct SimConfig {
   int figure8_loops = 3;            ///< kFigure8: loops of the figure-8 (~1000 frames at 15 km/h)
   double speed_kmh = 15.0;          ///< cruise speed (kFigure8, kStraight)
   double duration_s = 0;            ///< 0 = the trajectory's natural length; >0 truncates
-  std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64", "vlp16"
+  std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64", "vlp16", "livox-avia"
   double azimuth_step_deg = 0.2;    ///< horizontal resolution (1800 columns per turn)
   double frame_rate_hz = 10.0;      ///< spin rate; one frame per revolution
   double range_noise_m = 0.02;      ///< Gaussian sigma along the ray
@@ -61,16 +62,15 @@ struct SimConfig {
   /// jogging, along the sidewalks at 5.3 m or crossing). traffic.hpp.
   int traffic = 0;
   int pedestrians = 0;
+  /// Several LiDARs (rig.hpp): "name:model[@mount][/rate_hz],...", e.g.
+  /// "top:pandar64,left:vlp16@left,right:vlp16@right,front:os1-64@front". Mounts: roof (default),
+  /// left, right, front, rear, roof-front; rate: frame_rate_hz unless given. Each rig LiDAR gets
+  /// its own seeded mount, clock offset (time_offset_s + U(-rig_clock_spread_s, +spread)), spin
+  /// phase and frame phase; the ego body blocks rays (it does not return points). T_ins_lidar, if
+  /// given, is the first LiDAR's. Empty: the single LiDAR lidar_model, exactly as without rigs.
+  std::string rig;
+  double rig_clock_spread_s = 0.03;
 };
-
-/// A spinning LiDAR: beam elevations (ring r = index r) and its name.
-struct LidarModel {
-  std::string name;
-  std::vector<double> elevation_deg;  ///< per ring
-};
-/// Throws std::invalid_argument for an unknown name.
-LidarModel lidar_model(const std::string& name);
-std::vector<std::string> lidar_model_names();
 
 struct Scene;    // primitives and their BVH (scene.hpp)
 struct Traffic;  // moving vehicles and people (traffic.hpp)
@@ -78,6 +78,7 @@ struct Traffic;  // moving vehicles and people (traffic.hpp)
 /// One simulated LiDAR of the vehicle: model, true mount, its own clock and spin.
 struct SimLidar {
   std::string name = "lidar";       ///< a rig LiDAR's folder name
+  std::string mount = "roof";       ///< mount preset (rig.hpp)
   LidarModel model;
   Iso3 T_ins_lidar_true = Iso3::Identity();
   Iso3 T_ins_lidar_init = Iso3::Identity();
@@ -139,8 +140,10 @@ std::vector<StampedPose> reported_poses(const World& world, const std::vector<do
 /// The per-frame pose file: for each frame time t_end (LiDAR clock) the pose the INS reports for
 /// INS time t_end, i.e. the stamp a user without time-offset knowledge pairs with the frame. With a
 /// nonzero offset the sweep was actually taken from the pose at INS time t_end + offset.
-std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s);
-/// A reported pose stream at rate_hz covering every sweep of the drive (the TUM file).
+/// `lidar`: whose pose file (each LiDAR of a rig draws its own white noise; lidars[0]'s is the
+/// single-LiDAR file).
+std::vector<StampedPose> frame_poses(const World& world, const std::vector<double>& t_end_s, std::size_t lidar = 0);
+/// A reported pose stream at rate_hz covering every sweep of every LiDAR (the TUM file).
 std::vector<StampedPose> dense_reported_poses(const World& world, double rate_hz = 100.0);
 
 /// "1700000000.100000": the decimal frame time, microseconds.
@@ -159,8 +162,13 @@ struct SimDataset {                 ///< everything in memory (tests); the CLI s
   std::vector<InsQuality> ins_quality;  ///< what the INS states, one per pose (frame time, INS clock)
 };
 
+/// Renders lidars[0] of a new world (everything in memory).
 SimDataset simulate(const SimConfig& config,
                     const std::function<void(std::size_t done, std::size_t total)>& progress = {});
+/// Renders one LiDAR of a world: its sweeps, its pose file, its true and initial extrinsic and
+/// clock offset (a rig's LiDARs one by one, for in-process tests).
+SimDataset simulate_lidar(const World& world, std::size_t lidar,
+                          const std::function<void(std::size_t done, std::size_t total)>& progress = {});
 
 /// Core Dataset (FrameSource over the sweeps, reported poses, fiducials, initial guess).
 Dataset to_dataset(const SimDataset& sim);

@@ -9,6 +9,7 @@ namespace insalign::sim {
 
 /// Frames render on demand (thread-safe); poses are the per-frame reported poses, as in the
 /// written pose file; fiducials and the initial guess as written. `world` is shared, not copied.
-Dataset world_dataset(std::shared_ptr<const World> world);
+/// `lidar`: which LiDAR of a rig (its frames, pose file and initial guess).
+Dataset world_dataset(std::shared_ptr<const World> world, std::size_t lidar = 0);
 
 }  // namespace insalign::sim

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <fmt/format.h>
 #include <functional>
+#include <limits>
 #include <set>
 #include <stdexcept>
 #include <sstream>
@@ -437,10 +438,17 @@ namespace {
 
 // genmsg's compute_md5_text: constants "type name=value", then fields; a message-typed field is
 // written as "<md5 of its type> name" (arrays of messages too, without brackets).
-std::string md5_of(const MsgDefinition& def, const std::string& type, const std::string& where, int depth) {
-  if (depth > 32) throw InputError(where, "", "message definition nests deeper than 32 levels (a cycle?)");
+// Memoised per type: a definition whose types each use the next one twice would otherwise cost
+// 2^depth hashes (found by fuzzing). ROS allows no recursive types.
+std::string md5_of(const MsgDefinition& def, const std::string& type, const std::string& where,
+                   std::map<std::string, std::string>& memo) {
+  if (const auto it = memo.find(type); it != memo.end()) {
+    if (it->second.empty()) throw InputError(where, "", "message definition of " + type + " contains itself");
+    return it->second;
+  }
   const MsgSpec* spec = def.find(type);
   if (spec == nullptr) throw InputError(where, "", "message definition has no section 'MSG: " + type + "'");
+  memo[type] = "";  // in progress
   std::string text;
   for (const MsgConstant& c : spec->constants) text += c.type + " " + c.name + "=" + c.value + "\n";
   for (const MsgField& f : spec->fields) {
@@ -449,18 +457,19 @@ std::string md5_of(const MsgDefinition& def, const std::string& type, const std:
       if (f.is_array) suffix = f.array_size > 0 ? "[" + std::to_string(f.array_size) + "]" : "[]";
       text += f.type + suffix + " " + f.name + "\n";
     } else {
-      text += md5_of(def, f.type, where, depth + 1) + " " + f.name + "\n";
+      text += md5_of(def, f.type, where, memo) + " " + f.name + "\n";
     }
   }
   if (!text.empty()) text.pop_back();  // genmsg strips the last newline
-  return md5_hex(text);
+  return memo[type] = md5_hex(text);
 }
 
 }  // namespace
 
 std::string ros1_md5sum(const std::string& type, const std::string& full_text, const std::string& where) {
   const MsgDefinition def = parse_message_definition(type, full_text, false, where);
-  return md5_of(def, def.main_type, where, 0);
+  std::map<std::string, std::string> memo;
+  return md5_of(def, def.main_type, where, memo);
 }
 
 // ------------------------------------------------------------------------ built-in full texts
@@ -555,6 +564,7 @@ struct Flattener {
   bool ros2;
   std::string opaque;
   std::vector<std::string>& warnings;
+  std::size_t limit;  ///< entries wanted: a stored definition is expanded no further than compared
   std::vector<FlatField> out;
   std::set<std::string> assumed;  ///< sections taken from the built-in definition (warned once)
 
@@ -574,6 +584,7 @@ struct Flattener {
       return;
     }
     for (const MsgField& f : s->fields) {
+      if (out.size() >= limit) return;
       const std::string path = prefix + f.name;
       out.push_back({path, canonical_type(f, ros2)});
       if (f.is_primitive() || path == opaque) continue;
@@ -655,11 +666,12 @@ DefinitionCheck check_definition(const Topic& topic, const std::string& source) 
       builtin->type, ros2 ? builtin->ros2_text : builtin->ros1_text, ros2, "built-in " + builtin->type);
   const CheckRule* rule = check_rule(builtin->type);
   const std::string opaque = rule != nullptr ? rule->opaque : "";
-  Flattener mine{reference, nullptr, ros2, opaque, out.warnings, {}, {}};
-  Flattener theirs{stored, &reference, ros2, opaque, out.warnings, {}, {}};
+  Flattener mine{reference, nullptr, ros2, opaque, out.warnings, std::numeric_limits<std::size_t>::max(), {}, {}};
   mine.add(reference.main_type, "", 0);
+  const std::vector<FlatField> expected = expected_fields(mine.out, rule);
+  Flattener theirs{stored, &reference, ros2, opaque, out.warnings, expected.size() + 1, {}, {}};
   theirs.add(stored.main_type, "", 0);
-  compare_fields(expected_fields(mine.out, rule), theirs.out, rule == nullptr || *rule->last_read == '\0',
+  compare_fields(expected, theirs.out, rule == nullptr || *rule->last_read == '\0',
                  [&](const std::string& what) {
                    throw InputError(file, location,
                                     "the stored definition of " + topic.type + " is not the one insalign reads: " +

@@ -1,5 +1,6 @@
 #include "io/bag/messages.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 #include <limits>
@@ -208,6 +209,17 @@ PointCloud2Layout decode_pointcloud2_layout(Bytes bytes, MessageEncoding encodin
   data = r.read_bytes(r.read_length("data", 1), "data");
   m.is_dense = r.read_bool("is_dense");
   r.expect_end();
+  return m;
+}
+
+PointCloud2Layout decode_pointcloud2_head(Bytes prefix, MessageEncoding encoding, const std::string& where,
+                                          std::size_t* data_bytes) {
+  MessageReader r(prefix, encoding, where, "sensor_msgs/PointCloud2");
+  In io{r};
+  PointCloud2Layout m;
+  io_pointcloud2_head(io, m);
+  const std::uint32_t n = r.read<std::uint32_t>("data");
+  if (data_bytes != nullptr) *data_bytes = n;
   return m;
 }
 
@@ -623,9 +635,15 @@ constexpr InsStatus kInsStatuses[] = {
     {12, "MOTION_DETECT", InsState::kNotNavigating},
 };
 
+// By name, ignoring underscores: the oem7 constants say WAITING_INITIAL_POS, NovAtel's logs (and
+// so novatel_gps_msgs strings) WAITING_INITIALPOS.
 InsState ins_state(const std::string& name) {
+  const auto bare = [](std::string s) {
+    s.erase(std::remove(s.begin(), s.end(), '_'), s.end());
+    return s;
+  };
   for (const InsStatus& s : kInsStatuses) {
-    if (name == s.name) return s.state;
+    if (bare(name) == bare(s.name)) return s.state;
   }
   return InsState::kUnknown;
 }

@@ -255,6 +255,10 @@ PointCloud2 decode_pointcloud2(Bytes bytes, MessageEncoding encoding, const std:
 /// Everything but the data, which is returned as a view into `bytes` (no copy).
 PointCloud2Layout decode_pointcloud2_layout(Bytes bytes, MessageEncoding encoding, const std::string& where,
                                             Bytes& data);
+/// The layout from the bytes before the data only, so a prefix of the message is enough (e.g.
+/// BagReader::read_prefix); `data_bytes` is the length the data claims; is_dense is not read.
+PointCloud2Layout decode_pointcloud2_head(Bytes prefix, MessageEncoding encoding, const std::string& where,
+                                          std::size_t* data_bytes = nullptr);
 NavSatFix decode_navsatfix(Bytes bytes, MessageEncoding encoding, const std::string& where);
 Imu decode_imu(Bytes bytes, MessageEncoding encoding, const std::string& where);
 Odometry decode_odometry(Bytes bytes, MessageEncoding encoding, const std::string& where);
@@ -285,7 +289,8 @@ std::vector<std::uint8_t> encode_message(const Oem7Inspvax& msg, MessageEncoding
 std::vector<std::uint8_t> encode_message(const NovatelGpsInspva& msg, MessageEncoding encoding);
 std::vector<std::uint8_t> encode_message(const NovatelGpsInspvax& msg, MessageEncoding encoding);
 
-/// The pieces, for messages that embed them.
+/// The pieces, for messages that embed them. read_header also reads the header.stamp of any
+/// stamped message from a prefix of it.
 Header read_header(MessageReader& in);
 void write_header(MessageWriter& out, const Header& header);
 

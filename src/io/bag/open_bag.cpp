@@ -74,6 +74,7 @@ class SplitBagReader final : public BagReader {
   const std::vector<Topic>& topics() const override { return topics_; }
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
+  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
   std::string describe() const override { return describe_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }
   std::int64_t start_time_ns() const override { return start_ns_; }
@@ -93,6 +94,8 @@ class SplitBagReader final : public BagReader {
 
   void merge_topics();
   const TopicIndex& index(std::uint32_t topic) const;
+  /// The part holding `ref` and that part's own ref for it.
+  std::pair<const BagReader*, MessageRef> locate(const MessageRef& ref) const;
 
   std::vector<std::unique_ptr<BagReader>> parts_;
   fs::path path_;
@@ -189,12 +192,22 @@ std::vector<MessageRef> SplitBagReader::messages(std::uint32_t topic) const {
   return out;
 }
 
-std::vector<std::uint8_t> SplitBagReader::read(const MessageRef& ref) const {
+std::pair<const BagReader*, MessageRef> SplitBagReader::locate(const MessageRef& ref) const {
   const TopicIndex& idx = index(ref.topic);
   if (ref.locator >= idx.inner.size() || idx.part[ref.locator] != ref.locator2) {
-    throw std::out_of_range("SplitBagReader::read: not a message of this bag");
+    throw std::out_of_range("SplitBagReader: not a message of this bag");
   }
-  return parts_[ref.locator2]->read(idx.inner[ref.locator]);
+  return {parts_[ref.locator2].get(), idx.inner[ref.locator]};
+}
+
+std::vector<std::uint8_t> SplitBagReader::read(const MessageRef& ref) const {
+  const auto [part, inner] = locate(ref);
+  return part->read(inner);
+}
+
+std::vector<std::uint8_t> SplitBagReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
+  const auto [part, inner] = locate(ref);
+  return part->read_prefix(inner, max_bytes);
 }
 
 }  // namespace

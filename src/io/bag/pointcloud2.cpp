@@ -57,8 +57,8 @@ const PointField* usable(const PointCloud2Layout& cloud, const PointField* f, co
   return f;
 }
 
-const PointField* first_of(const PointCloud2Layout& cloud, std::initializer_list<const char*> names,
-                           const std::string& where) {
+template <std::size_t N>
+const PointField* first_of(const PointCloud2Layout& cloud, const char* const (&names)[N], const std::string& where) {
   for (const char* n : names) {
     if (const PointField* f = find_field(cloud, n)) return usable(cloud, f, where);
   }
@@ -69,7 +69,7 @@ Grid check_grid(const PointCloud2Layout& cloud, Bytes data, const std::string& w
   if (cloud.is_bigendian) fail(where, "big-endian point clouds are not supported");
   Grid g{data.data(), cloud.width, cloud.height, cloud.point_step, cloud.row_step};
   const std::uint64_t n = static_cast<std::uint64_t>(cloud.width) * cloud.height;
-  if (n == 0) return g;
+  if (n == 0) return Grid{};  // not {width 0, height 4e9}: the loops over rows would still spin
   if (cloud.point_step == 0) fail(where, fmt::format("point_step is 0 for {} points", n));
   const std::uint64_t row_bytes = static_cast<std::uint64_t>(cloud.width) * cloud.point_step;
   if (cloud.height == 1) g.row_step = row_bytes;  // row_step unused: some drivers leave it wrong
@@ -129,6 +129,7 @@ void gather(const Grid& g, const PointField& f, Out* out, std::size_t stride = 1
 
 void gather_xyz(const Grid& g, const PointField& x, const PointField& y, const PointField& z, std::vector<Vec3f>& p) {
   p.resize(g.size());
+  if (p.empty()) return;  // (p.data() is null then)
   float* out = p.data()->data();  // Vec3f is three packed floats
   const bool packed_float32 = x.datatype == PointField::kFloat32 && y.datatype == PointField::kFloat32 &&
                               z.datatype == PointField::kFloat32 && y.offset == x.offset + 4 && z.offset == x.offset + 8;
@@ -172,9 +173,10 @@ std::string driver_hint(const std::string& name, PointTimeConvention c) {
 }
 
 // The convention from the datatype and the values (over the points kept): integers are
-// nanoseconds after the stamp; floats of 1e11 and more are absolute nanoseconds; floats near the
-// stamp are absolute seconds, small ones (|v| <= 10 s) seconds after the stamp, anything else
-// absolute seconds of the LiDAR's own clock (e.g. since power-on).
+// nanoseconds after the stamp; floats of 1e11 and more are absolute nanoseconds; floats closer to
+// the stamp than to zero are absolute seconds; small ones (|v| <= 10 s) are seconds after the
+// stamp (this holds for simulation clocks that start at 0 too); anything else is absolute seconds
+// of the LiDAR's own clock (e.g. since power-on).
 TimeModel classify_time(const PointField& f, double vmin, double vmax, double stamp_s) {
   using C = PointTimeConvention;
   const std::string what = fmt::format("'{}' {}", f.name, point_field_type_name(f.datatype));
@@ -185,7 +187,7 @@ TimeModel classify_time(const PointField& f, double vmin, double vmax, double st
     m = {C::kRelativeNanoseconds, 1e-9, "nanoseconds after header.stamp"};
   } else if (magnitude >= 1e11) {
     m = {C::kAbsoluteNanoseconds, 1e-9, "absolute nanoseconds"};
-  } else if (std::abs(vmax - stamp_s) <= 10.0 || magnitude > 10.0) {
+  } else if (std::abs(vmax - stamp_s) < std::abs(vmax) || magnitude > 10.0) {
     m = {C::kAbsoluteSeconds, 1.0, "absolute seconds"};
   } else {
     m = {C::kRelativeSeconds, 1.0, "seconds after header.stamp"};
@@ -241,7 +243,8 @@ void apply_time(Gathered& g, const PointField* time_field, double stamp_s, Sweep
   sweep.t_end_s = stamp_s;
   if (time_field == nullptr || g.p.empty()) {
     g.t.clear();
-    info.time_description = time_field == nullptr ? "no per-point time field: frame time = header.stamp" : "";
+    info.time_description = time_field == nullptr ? "no per-point time field: frame time = header.stamp"
+                                                  : "no points: frame time = header.stamp";
     return;
   }
   const auto [lo, hi] = std::minmax_element(g.t.begin(), g.t.end());
@@ -282,8 +285,8 @@ Sweep sweep_from_pointcloud2(const PointCloud2Layout& cloud, Bytes data, const s
   info.header_stamp_s = cloud.header.stamp.seconds();
   info.frame_id = cloud.header.frame_id;
   for (const PointField& f : cloud.fields) {
-    info.fields.push_back(f.name + " " + point_field_type_name(f.datatype) +
-                          (f.count > 1 ? "[" + std::to_string(f.count) + "]" : ""));
+    info.fields.push_back(f.count > 1 ? fmt::format("{} {}[{}]", f.name, point_field_type_name(f.datatype), f.count)
+                                      : fmt::format("{} {}", f.name, point_field_type_name(f.datatype)));
   }
   const Grid grid = check_grid(cloud, data, where);
   info.points = grid.size();
@@ -293,9 +296,9 @@ Sweep sweep_from_pointcloud2(const PointCloud2Layout& cloud, Bytes data, const s
     axes[a] = usable(cloud, find_field(cloud, name), where);
     if (axes[a] == nullptr) fail(where, fmt::format("no '{}' field; the cloud has: {}", name, field_list(cloud)));
   }
-  const PointField* time_field = first_of(cloud, {kTimeFields[0], kTimeFields[1], kTimeFields[2], kTimeFields[3]}, where);
-  const PointField* intensity = first_of(cloud, {kIntensityFields[0], kIntensityFields[1]}, where);
-  const PointField* ring = first_of(cloud, {kRingFields[0], kRingFields[1], kRingFields[2]}, where);
+  const PointField* time_field = first_of(cloud, kTimeFields, where);
+  const PointField* intensity = first_of(cloud, kIntensityFields, where);
+  const PointField* ring = first_of(cloud, kRingFields, where);
 
   Gathered g;
   gather_xyz(grid, *axes[0], *axes[1], *axes[2], g.p);

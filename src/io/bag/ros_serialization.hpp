@@ -40,6 +40,8 @@ struct Stamp {
 class MessageReader {
  public:
   MessageReader(std::span<const std::uint8_t> bytes, MessageEncoding encoding, std::string where, std::string type);
+  /// The reader keeps a view of the bytes: a temporary vector would dangle.
+  MessageReader(std::vector<std::uint8_t>&&, MessageEncoding, std::string, std::string) = delete;
 
   MessageEncoding encoding() const { return encoding_; }
   bool cdr() const { return encoding_ == MessageEncoding::kCdr; }

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cstdint>
 #include <fstream>
-#include <limits>
 #include <map>
 #include <mutex>
 #include <set>
@@ -147,7 +147,10 @@ class Db3Reader final : public BagReader {
 
   const std::vector<Topic>& topics() const override { return topics_; }
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
-  std::vector<std::uint8_t> read(const MessageRef& ref) const override;
+  std::vector<std::uint8_t> read(const MessageRef& ref) const override { return read_bytes(ref, SIZE_MAX); }
+  std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override {
+    return read_bytes(ref, max_bytes);  // a blob is read in place: its first bytes cost only those
+  }
   std::string describe() const override { return describe_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }
   std::int64_t start_time_ns() const override { return start_ns_; }
@@ -184,6 +187,7 @@ class Db3Reader final : public BagReader {
   std::map<std::string, Definition> read_definitions(sqlite3* db) const;
   void read_topics(sqlite3* db);
   void count_messages(sqlite3* db);
+  std::vector<std::uint8_t> read_bytes(const MessageRef& ref, std::size_t max_bytes) const;
 
   fs::path path_;
   std::string uri_;
@@ -362,7 +366,7 @@ std::vector<MessageRef> Db3Reader::messages(std::uint32_t topic) const {
   return refs;
 }
 
-std::vector<std::uint8_t> Db3Reader::read(const MessageRef& ref) const {
+std::vector<std::uint8_t> Db3Reader::read_bytes(const MessageRef& ref, std::size_t max_bytes) const {
   const Lease conn(*this);
   sqlite3* db = conn->db.get();
   const auto rowid = static_cast<sqlite3_int64>(ref.locator);
@@ -381,8 +385,9 @@ std::vector<std::uint8_t> Db3Reader::read(const MessageRef& ref) const {
                      "message row " + std::to_string(rowid) + " claims " + std::to_string(bytes) +
                          " bytes, more than the file holds");
   }
-  std::vector<std::uint8_t> data(static_cast<std::size_t>(bytes));
-  if (bytes > 0 && sqlite3_blob_read(conn->blob, data.data(), bytes, 0) != SQLITE_OK) {
+  const int wanted = static_cast<int>(std::min<std::size_t>(static_cast<std::size_t>(bytes), max_bytes));
+  std::vector<std::uint8_t> data(static_cast<std::size_t>(wanted));
+  if (wanted > 0 && sqlite3_blob_read(conn->blob, data.data(), wanted, 0) != SQLITE_OK) {
     sqlite3_blob_close(conn->blob);
     conn->blob = nullptr;
     fail_sqlite(path_, db, "cannot read message row " + std::to_string(rowid));
