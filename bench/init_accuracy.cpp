@@ -14,6 +14,7 @@
 #include <mutex>
 
 #include "core/global_init.hpp"
+#include "core/pipeline.hpp"
 #include "core/rough.hpp"
 #include "sim/world_dataset.hpp"
 
@@ -77,30 +78,31 @@ int main(int argc, char** argv) {
     config.ins_axes = seed % 2 ? sim::InsAxes::kXForward : sim::InsAxes::kYForward;
     auto world = std::make_shared<const sim::World>(sim::build_world(config));
     const Dataset data = cached(sim::world_dataset(world));
+    const FrameStore store = make_frame_store(data, PipelineConfig{});
     const Iso3 T_true = world->T_ins_lidar_true;
 
-    initialise_extrinsic(data, std::nullopt);  // renders the frames it needs into the cache
+    initialise_extrinsic(store, std::nullopt);  // renders the frames it needs into the cache
     const std::clock_t cpu0 = std::clock();
-    const GlobalInitResult res = initialise_extrinsic(data, std::nullopt);
+    const GlobalInitResult res = initialise_extrinsic(store, std::nullopt);
     const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
     const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, T_true);
     const double dxy = err.dt_m.head<2>().norm();
 
     Iso3 init_xy = T_true;  // INS axis convention mixed up: x_init = y, y_init = -x
     init_xy = yaw_about_ins_z(T_true, -90.0);
-    const GlobalInitResult r180 = initialise_extrinsic(data, yaw_about_ins_z(T_true, 180.0));
-    const GlobalInitResult rxy = initialise_extrinsic(data, init_xy);
-    const GlobalInitResult rok = initialise_extrinsic(data, world->T_ins_lidar_init);
+    const GlobalInitResult r180 = initialise_extrinsic(store, yaw_about_ins_z(T_true, 180.0));
+    const GlobalInitResult rxy = initialise_extrinsic(store, init_xy);
+    const GlobalInitResult rok = initialise_extrinsic(store, world->T_ins_lidar_init);
     const auto ok_override = [&](const GlobalInitResult& r) {
       const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, T_true);
-      return r.source == "data-overrides-init" && e.angle_deg < 20 && e.dt_m.head<2>().norm() < 0.5;
+      return r.source == InitSource::kDataOverridesInit && e.angle_deg < 20 && e.dt_m.head<2>().norm() < 0.5;
     };
     recovered += ok_override(r180) + ok_override(rxy);
-    kept += rok.source == "init";
+    kept += rok.source == InitSource::kInit;
 
     std::string rough_text;
     if (rough) {
-      const RoughResult rr = calibrate_rough(data, res.T_ins_lidar);
+      const RoughResult rr = calibrate_rough(store, rough_frame_groups(store), res.T_ins_lidar);
       const ExtrinsicError e = extrinsic_error(rr.T_ins_lidar, T_true);
       rough_text = fmt::format("{:.3f} {:.3f}", e.angle_deg, e.dt_m.head<2>().norm());
       worst_rough_ang = std::max(worst_rough_ang, e.angle_deg);
@@ -109,17 +111,17 @@ int main(int argc, char** argv) {
     const double yaw_gt = rpy_from_rotation(T_true.linear()).z() * kDegPerRad;
     fmt::print("{:>4} {:>4} {:>7.1f} | {:>6.2f} {:>6.2f} {:>6.2f} {:>6.3f} {:>6.3f} | {:>5.2f} {:>5.2f} | {:>6} {:>6} {:>6} | {}\n",
                seed, seed % 2 ? "xfwd" : "yfwd", yaw_gt, err.angle_deg, std::max(err.drpy_deg.x(), err.drpy_deg.y()),
-               err.drpy_deg.z(), dxy, err.dt_m.z(), res.wall_time_s, r180.wall_time_s,
-               ok_override(r180) ? "ok" : r180.source, ok_override(rxy) ? "ok" : rxy.source,
-               rok.source == "init" ? "kept" : rok.source, rough_text);
+               err.drpy_deg.z(), dxy, err.dt_m.z(), res.outcome.wall_time_s, r180.outcome.wall_time_s,
+               ok_override(r180) ? "ok" : enum_name(r180.source), ok_override(rxy) ? "ok" : enum_name(rxy.source),
+               rok.source == InitSource::kInit ? "kept" : enum_name(rok.source), rough_text);
     if (verbose)
       fmt::print("     cpu {:.2f} s; wall: load {:.2f} coarse {:.2f} hand-eye {:.2f} score {:.2f}\n", cpu_s, res.load_s,
                  res.coarse_s, res.hand_eye_s, res.score_s);
     if (verbose) fmt::print("     {}\n     init180: {}\n", res.explanation, r180.explanation);
     worst_ang = std::max(worst_ang, err.angle_deg);
     worst_xy = std::max(worst_xy, dxy);
-    worst_t = std::max(worst_t, res.wall_time_s);
-    sum_t += res.wall_time_s;
+    worst_t = std::max(worst_t, res.outcome.wall_time_s);
+    sum_t += res.outcome.wall_time_s;
     ++runs;
   }
   fmt::print("worst: rotation {:.2f} deg, horizontal translation {:.3f} m; time mean {:.2f} s, max {:.2f} s\n",

@@ -22,7 +22,9 @@
 #include "core/deskew.hpp"
 #include "core/occupancy.hpp"
 #include "core/plane_features.hpp"
+#include "core/pipeline.hpp"
 #include "core/refine.hpp"
+#include "core/stitch.hpp"
 #include "core/rough.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
@@ -90,9 +92,9 @@ const Window& window() {
     for (std::size_t f = 0; f < kWindowFrames; ++f) {
       const Sweep& s = d.sweeps[f];
       const std::vector<Vec3f> deskewed = deskew_sweep(s, d.data.poses, d.T_ins_lidar());
-      for (std::uint32_t i : voxel_downsample_indices(std::span<const Vec3f>(deskewed), rough.downsample_voxel_m)) {
+      for (std::uint32_t i : voxel_downsample_indices(std::span<const Vec3f>(deskewed), rough.filter.voxel_m)) {
         const float r = deskewed[i].norm();
-        if (r >= rough.min_range_m && r <= rough.max_range_m) p_lidar[f].push_back(deskewed[i]);
+        if (r >= VehicleConfig{}.body_radius_m && r <= rough.filter.max_range_m) p_lidar[f].push_back(deskewed[i]);
       }
       T_world_ins[f] = frame_pose(s, d.data.poses, 0.0);
       const Iso3 T_world_lidar = T_world_ins[f] * d.T_ins_lidar();
@@ -127,9 +129,10 @@ const Window& window() {
 /// in the world with the true extrinsic; a 1 mm final downsampling keeps every point.
 const std::vector<Vec3f>& stage2_map() {
   static const std::vector<Vec3f> map = [] {
-    StitchConfig config;
-    config.voxel_m = 0.001;
-    return stitch_map(drive().data, drive().T_ins_lidar(), 0.0, config);
+    const FrameStore store = make_frame_store(drive().data, PipelineConfig{});
+    std::vector<std::size_t> all(drive().sweeps.size());
+    for (std::size_t i = 0; i < all.size(); ++i) all[i] = i;
+    return stitch_map(store, all, drive().T_ins_lidar(), 0.0, 0.001);
   }();
   return map;
 }
@@ -245,7 +248,7 @@ BENCHMARK(BM_PlaneThicknessStage2Map)->Unit(benchmark::kMillisecond)->UseRealTim
 // The Gauss-Newton normal equations of the continuous method are internal to refine.cpp; the
 // smallest public entry point is the whole stage. Run with a fixed number of iterations, no time
 // offset (so no occupancy scan), starting at the truth; one evaluation = place the map, (re)fit or
-// refresh planes, build the 7x7 system. Each run also reduces the in-memory frames once, so the
+// refresh planes, build the 7x7 system. The frames are reduced once, before timing; the
 // cost of one evaluation is the difference between the 4- and 1-iteration runs divided by 3.
 void BM_RefineContinuousStage(benchmark::State& state) {
   const Drive& d = drive();
@@ -256,8 +259,11 @@ void BM_RefineContinuousStage(benchmark::State& state) {
   config.converged_rot_deg = 0.0;
   config.converged_trans_m = 0.0;
   RefineResult r;
+  const FrameStore store = make_frame_store(d.data, PipelineConfig{});
+  const std::vector<std::size_t> frames = refine_frames(store, config, 0.0, 0.0);
+  (void)store.thinned(frames, config.filter);
   for (auto _ : state) {
-    r = refine_extrinsic(d.data, d.T_ins_lidar(), 0.0, config);
+    r = refine_extrinsic(store, frames, d.T_ins_lidar(), 0.0, config);
     benchmark::DoNotOptimize(r.T_ins_lidar);
   }
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) *

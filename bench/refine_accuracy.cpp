@@ -15,6 +15,7 @@
 #include <mutex>
 #include <random>
 
+#include "core/pipeline.hpp"
 #include "core/refine.hpp"
 #include "core/rough.hpp"
 #include "sim/world_dataset.hpp"
@@ -123,39 +124,31 @@ int main(int argc, char** argv) {
     Dataset data = sim::world_dataset(world);
     const Iso3 truth = world->T_ins_lidar_true;
     Iso3 start = perturbed(truth, rng, rot_deg, trans_m);
+    const FrameStore store = make_frame_store(data, PipelineConfig{});
     if (from_rough) {
-      const RoughResult rough = calibrate_rough(data, world->T_ins_lidar_init);
+      const RoughResult rough = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init);
       start = rough.T_ins_lidar;
       Run r;
       r.err = to_vec(extrinsic_error(start, truth));
-      r.seconds = rough.wall_time_s;
+      r.seconds = rough.outcome.wall_time_s;
       rough_runs.push_back(r);
     }
-    // Render the frames the stage will pick before timing it.
+    // Render and reduce the frames the stage will pick before timing it.
     const RefineConfig defaults;
-    const std::vector<std::size_t> picked =
-        pick_refine_frames(data, defaults.frames, 0.0, defaults.time_offset_range_s);
-    auto cache = std::make_shared<std::map<std::size_t, Sweep>>();
-    std::vector<Sweep> rendered(picked.size());
-    tbb::parallel_for(std::size_t{0}, picked.size(), [&](std::size_t i) { rendered[i] = data.frames.load(picked[i]); });
-    for (std::size_t i = 0; i < picked.size(); ++i) (*cache)[picked[i]] = std::move(rendered[i]);
-    Dataset cached = data;
-    cached.frames.load = [cache, world](std::size_t i) {
-      const auto it = cache->find(i);
-      return it != cache->end() ? it->second : sim::render_sweep(*world, i);
-    };
+    const std::vector<std::size_t> picked = refine_frames(store, defaults, 0.0, defaults.time_offset_range_s);
+    (void)store.thinned(picked, defaults.filter);
 
     for (std::size_t m = 0; m < method_list.size(); ++m) {
       RefineConfig rc;
       rc.method = method_list[m].second;
       const double cpu0 = cpu_seconds();
-      const RefineResult r = refine_extrinsic(cached, start, 0.0, rc);
+      const RefineResult r = refine_extrinsic(store, picked, start, 0.0, rc);
       const double cpu = cpu_seconds() - cpu0;
       Run run;
       run.start = to_vec(extrinsic_error(start, truth));
       run.err = to_vec(extrinsic_error(r.T_ins_lidar, truth));
       run.offset_err_s = std::abs(r.time_offset_s - config.time_offset_s);
-      run.seconds = r.wall_time_s;
+      run.seconds = r.outcome.wall_time_s;
       run.evaluations = r.evaluations;
       run.cpu_seconds = cpu;
       runs[m].push_back(run);
@@ -163,7 +156,7 @@ int main(int argc, char** argv) {
                  "seed {:>3} {:<14} |t| {:.4f} {:.4f} {:.4f} m  |rpy| {:.4f} {:.4f} {:.4f} deg  offset {:+.4f} "
                  "(err {:.2f} ms)  {:.2f} s wall {:.2f} s CPU  {} evals  {} frames {} points  {} {:.6g} -> {:.6g}\n",
                  config.seed, rc.method == RefineMethod::kContinuous ? "continuous" : "grid", run.err[0], run.err[1],
-                 run.err[2], run.err[3], run.err[4], run.err[5], r.time_offset_s, 1e3 * run.offset_err_s, r.wall_time_s, cpu,
+                 run.err[2], run.err[3], run.err[4], run.err[5], r.time_offset_s, 1e3 * run.offset_err_s, r.outcome.wall_time_s, cpu,
                  r.evaluations, r.frames_used, r.points_used, r.measure, r.crispness_before, r.crispness_after);
     }
   }

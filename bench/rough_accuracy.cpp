@@ -15,6 +15,7 @@
 #include <map>
 #include <mutex>
 
+#include "core/pipeline.hpp"
 #include "core/rough.hpp"
 #include "io/poses.hpp"
 #include "sim/world_dataset.hpp"
@@ -77,30 +78,21 @@ int main(int argc, char** argv) {
       config.recorded_trajectory = recorded;
     }
     auto world = std::make_shared<const sim::World>(sim::build_world(config));
-    Dataset lazy = sim::world_dataset(world);
-    // Render the frames the stage will pick up front (the stage's loading then costs a copy, as a
-    // PCD decode would cost a read).
+    const Dataset data = sim::world_dataset(world);
+    // Render and reduce the frames the stage will pick up front (the stage's loading then costs
+    // a copy, as a PCD decode would cost a read).
     const RoughConfig rough_config;
-    FrameSelectionConfig sel_config = rough_config.frames;
-    const std::vector<std::size_t> picked = select_frames(lazy, sel_config).all();
-    std::map<std::size_t, std::size_t> slot;
-    for (std::size_t k = 0; k < picked.size(); ++k) slot[picked[k]] = k;
-    auto cache = std::make_shared<std::vector<Sweep>>(picked.size());
-    tbb::parallel_for(std::size_t{0}, picked.size(), [&](std::size_t k) { (*cache)[k] = lazy.frames.load(picked[k]); });
-    Dataset data = lazy;
-    auto lazy_load = lazy.frames.load;
-    data.frames.load = [cache, slot, lazy_load](std::size_t i) {
-      const auto it = slot.find(i);
-      return it != slot.end() ? (*cache)[it->second] : lazy_load(i);
-    };
+    const FrameStore store = make_frame_store(data, PipelineConfig{});
+    const FrameGroups groups = rough_frame_groups(store, rough_config);
+    for (const auto& g : groups) (void)store.thinned(g, rough_config.filter);
     const Iso3 T_true = world->T_ins_lidar_true;
     const std::clock_t cpu0 = std::clock();
-    const RoughResult r = calibrate_rough(data, world->T_ins_lidar_init, rough_config);
+    const RoughResult r = calibrate_rough(store, groups, world->T_ins_lidar_init, rough_config);
     const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
     const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, T_true);
     Run run;
     run.err << e.dt_m, e.drpy_deg;
-    run.seconds = r.wall_time_s;
+    run.seconds = r.outcome.wall_time_s;
     run.cpu_s = cpu_s;
     run.verdict = r.observability.explanation;
     if (verbose) {

@@ -16,7 +16,8 @@
 #include <random>
 
 #include "core/zcorrect.hpp"
-#include "io/config_file.hpp"
+#include "cli/tool_config.hpp"
+#include "core/pipeline.hpp"
 #include "sim/world_dataset.hpp"
 
 namespace insalign {
@@ -31,14 +32,14 @@ struct Case {
 };
 
 void add(Case& c, const ZResult& r, const Iso3& T_true, double floor_m) {
-  if (!r.determined) {
+  if (!r.determined()) {
     ++c.not_determined;
     return;
   }
   const double err_m = r.T_ins_lidar.translation().z() - T_true.translation().z();
   c.abs_err_m.push_back(std::abs(err_m));
   c.abs_err_beyond_floor_m.push_back(std::abs(err_m - floor_m));
-  c.seconds.push_back(r.wall_time_s);
+  c.seconds.push_back(r.outcome.wall_time_s);
 }
 
 void print(const Case& c) {
@@ -70,9 +71,9 @@ int main(int argc, char** argv) {
   app.add_option("--set", assignments, "override a parameter, e.g. sim.lidar_model=vlp16 or z.search_radius_m=1 "
                                        "(keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
-  io::ToolConfig tool;
+  cli::ToolConfig tool;
   try {
-    tool = io::tool_config_with(assignments);
+    tool = cli::tool_config_with(assignments);
   } catch (const std::exception& e) {
     fmt::print(stderr, "{}\n", e.what());
     return 2;
@@ -134,15 +135,15 @@ int main(int argc, char** argv) {
     const ZConfig& z_config = tool.calibrate.z;
     ZConfig nn_config = z_config;
     nn_config.match = FiducialMatch::kNearestNeighbour;
-    correct_z(data, T_start, offset, std::nullopt, nn_config);  // warm-up: renders the frames
-    const ZResult r_plane = correct_z(data, T_start, offset, std::nullopt, z_config);
-    const ZResult r_nn = correct_z(data, T_start, offset, std::nullopt, nn_config);
+    correct_z(make_frame_store(data, tool.calibrate), T_start, offset, std::nullopt, nn_config);  // warm-up: renders the frames
+    const ZResult r_plane = correct_z(make_frame_store(data, tool.calibrate), T_start, offset, std::nullopt, z_config);
+    const ZResult r_nn = correct_z(make_frame_store(data, tool.calibrate), T_start, offset, std::nullopt, nn_config);
     add(plane, r_plane, T_true, floor_m);
     add(nn, r_nn, T_true, floor_m);
 
     Dataset bad = data;
     bad.fiducials[0].p_world.z() += 0.5;
-    const ZResult r_out = correct_z(bad, T_start, offset, std::nullopt, z_config);
+    const ZResult r_out = correct_z(make_frame_store(bad, tool.calibrate), T_start, offset, std::nullopt, z_config);
     add(outlier, r_out, T_true, floor_m);
     if (!r_out.fiducials.empty() && !r_out.fiducials[0].used) ++outlier.outlier_flagged;
 
@@ -150,8 +151,8 @@ int main(int argc, char** argv) {
     const double h = world->ins_height_m + 0.01 * std::normal_distribution<double>(0.0, 1.0)(rng);
     Dataset no_fid = data;
     no_fid.fiducials.clear();
-    correct_z(no_fid, T_start, offset, h, z_config);  // warm-up
-    const ZResult r_h = correct_z(no_fid, T_start, offset, h, z_config);
+    correct_z(make_frame_store(no_fid, tool.calibrate), T_start, offset, h, z_config);  // warm-up
+    const ZResult r_h = correct_z(make_frame_store(no_fid, tool.calibrate), T_start, offset, h, z_config);
     add(height, r_h, T_true, 0.0);
     fmt::print("seed {:>2}: INS floor {:+.1f} mm | plane {:+.1f} mm, nn {:+.1f} mm, outlier {:+.1f} mm (F0 {}), height {:+.1f} mm "
                "[{} / {} frames loaded]\n",
@@ -161,12 +162,12 @@ int main(int argc, char** argv) {
                r_out.fiducials.empty() ? "?" : (r_out.fiducials[0].used ? "used" : "flagged"),
                1e3 * (r_h.T_ins_lidar.translation().z() - T_true.translation().z()), r_plane.frames_loaded,
                r_h.frames_loaded);
-    if (!r_plane.determined) fmt::print("  plane: {}\n", r_plane.explanation);
+    if (!r_plane.determined()) fmt::print("  plane: {}\n", r_plane.outcome.message);
     for (const FiducialResidual& f : r_plane.fiducials) {
       fmt::print("  {} {:>4} points, residual {:+.1f} mm{}\n", f.id, f.map_points, 1e3 * f.residual_after_m,
                  f.used ? "" : " (rejected: " + f.reason_rejected + ")");
     }
-    if (!r_h.determined) fmt::print("  height: {}\n", r_h.explanation);
+    if (!r_h.determined()) fmt::print("  height: {}\n", r_h.outcome.message);
   }
   fmt::print("\nmean/max mm: |tz error|; beyond floor: |tz error + drive-mean INS z error| (the part the method adds)\n");
   fmt::print("| case                         | n   | mean mm  | max mm   | floor+ mean | floor+ max  | mean s | max s  | n/d |\n");

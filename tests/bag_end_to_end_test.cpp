@@ -181,11 +181,11 @@ TEST(BagEndToEnd, CalibrationFromPcdAndFromBagAgree) {
   const io::BagDatasets bag = write_and_load_bag(world, run, dir / "bag");
   pcd.ins_quality = bag.lidars[0].ins_quality;  // the TUM file states no quality; the recording does
   PipelineConfig config;
-  config.repeatability_segments = 0;
+  config.repeatability.segments = 0;
   const auto t0 = std::chrono::steady_clock::now();
-  const CalibrationResult from_pcd = run_calibration(pcd, config);
+  const CalibrationResult from_pcd = run_calibration(make_frame_store(pcd, config), config);
   const auto t1 = std::chrono::steady_clock::now();
-  const CalibrationResult from_bag = run_calibration(bag.lidars[0], config);
+  const CalibrationResult from_bag = run_calibration(make_frame_store(bag.lidars[0], config), config);
   const auto t2 = std::chrono::steady_clock::now();
   const Iso3 T_sim_msg = cli::T_sim_ins_message(world, run.ins);
   const Iso3 bag_in_sim = T_sim_msg * from_bag.T_ins_lidar;

@@ -4,18 +4,30 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 
+#include "cli/tool_config.hpp"
 #include "core/errors.hpp"
 #include "io/config_file.hpp"
 
-namespace insalign::io {
+namespace insalign {
 namespace {
 
 enum class Colour { kRed, kGreen };
+inline constexpr std::array<std::pair<Colour, std::string_view>, 2> kColourNames{
+    {{Colour::kRed, "red"}, {Colour::kGreen, "green"}}};
+constexpr auto enum_names(Colour) { return std::span(kColourNames); }
+
 struct Inner {
   double voxel_m = 0.5;
   int iterations = 4;
 };
+template <class V>
+void visit_config(V& v, Inner& c) {
+  v("voxel_m", c.voxel_m, "voxel edge, m");
+  v("iterations", c.iterations, "iterations");
+}
+
 struct Small {
   Inner stage;
   bool deskew = true;
@@ -23,25 +35,22 @@ struct Small {
   std::string name = "a b";
   Colour colour = Colour::kRed;
   std::optional<double> height_m;
+  std::vector<Inner> rounds{{0.5, 1}, {0.25, 2}};
 };
-
-const std::vector<ConfigParam<Small>>& small_params() {
-  static const std::vector<ConfigParam<Small>> table = {
-      config_field<Small>("stage.voxel_m", "voxel edge, m", [](auto& c) -> auto& { return c.stage.voxel_m; }),
-      config_field<Small>("stage.iterations", "iterations", [](auto& c) -> auto& { return c.stage.iterations; }),
-      config_field<Small>("deskew", "use point times", [](auto& c) -> auto& { return c.deskew; }),
-      config_field<Small>("frames", "frames used", [](auto& c) -> auto& { return c.frames; }),
-      config_field<Small>("name", "a label", [](auto& c) -> auto& { return c.name; }),
-      config_enum<Small>("colour", "red or green", [](auto& c) -> auto& { return c.colour; },
-                         std::vector<std::pair<std::string, Colour>>{{"red", Colour::kRed}, {"green", Colour::kGreen}}),
-      config_field<Small>("height_m", "height, m", [](auto& c) -> auto& { return c.height_m; }),
-  };
-  return table;
+template <class V>
+void visit_config(V& v, Small& c) {
+  v.section("stage", c.stage);
+  v("deskew", c.deskew, "use point times");
+  v("frames", c.frames, "frames used");
+  v("name", c.name, "a label");
+  v("colour", c.colour, "red or green");
+  v("height_m", c.height_m, "height, m");
+  v.list("rounds", c.rounds, "the schedule");
 }
 
 Small load(const std::string& yaml) {
   Small s;
-  apply_config(small_params(), parse_config_scalars(yaml, "test.yaml"), "test.yaml", s);
+  io::apply_config(io::parse_config_scalars(yaml, "test.yaml"), "test.yaml", s);
   return s;
 }
 
@@ -53,12 +62,22 @@ TEST(ConfigFile, OverridesOnlyWhatIsGiven) {
   EXPECT_EQ(s.colour, Colour::kGreen);
   ASSERT_TRUE(s.height_m.has_value());
   EXPECT_EQ(*s.height_m, 1.25);
+  EXPECT_EQ(s.rounds.size(), 2u);  // a list not given keeps its default
   const Small t = load("deskew: no\nframes: 7\nname: \"12\"\nstage: {iterations: 9}\n");
   EXPECT_FALSE(t.deskew);
   EXPECT_EQ(t.frames, 7u);
   EXPECT_EQ(t.name, "12");
   EXPECT_EQ(t.stage.iterations, 9);
   EXPECT_EQ(load("").stage.voxel_m, 0.5);  // empty file: defaults
+}
+
+TEST(ConfigFile, AListReplacesTheWholeSchedule) {
+  const Small s = load("rounds:\n  - {voxel_m: 2.0}\n  - {iterations: 7}\n  - {voxel_m: 0.1, iterations: 3}\n");
+  ASSERT_EQ(s.rounds.size(), 3u);
+  EXPECT_EQ(s.rounds[0].voxel_m, 2.0);
+  EXPECT_EQ(s.rounds[0].iterations, Inner{}.iterations);  // fields not given: the struct's defaults
+  EXPECT_EQ(s.rounds[1].iterations, 7);
+  EXPECT_EQ(s.rounds[2].voxel_m, 0.1);
 }
 
 void expect_error(const std::string& yaml, const std::string& location, const std::string& fragment) {
@@ -80,8 +99,9 @@ TEST(ConfigFile, UnknownKeysAndWrongTypesNameTheLine) {
   expect_error("stage:\n  voxel_m: \"0.3\"\n", "line 2", "must be a number");  // quoted: a string
   expect_error("frames: -3\n", "line 1", "whole number >= 0");
   expect_error("deskew: 2\n", "line 1", "true or false");
-  expect_error("colour: blue\n", "line 1", "one of: red, green");
-  expect_error("stage:\n  voxel_m: [1, 2]\n", "line 2", "single value");
+  expect_error("colour: blue\n", "line 1", "one of: red or green");
+  expect_error("stage:\n  voxel_m: [1, 2]\n", "line 2", "list of 'name: value' maps");
+  expect_error("rounds:\n  - {voxel: 1}\n", "line 2", "unknown parameter 'rounds.0.voxel'");
   expect_error("deskew: true\ndeskew: false\n", "line 2", "given twice");
   expect_error("stage:\n  voxel_m: 0.3\n   bad: [\n", "line 3", "");  // YAML syntax
 }
@@ -92,9 +112,10 @@ TEST(ConfigFile, DumpListsEveryParameterAndLoadsBack) {
   changed.colour = Colour::kGreen;
   changed.name = "say \"hi\"";
   changed.height_m = 2.0;
-  const std::string text = dump_config(small_params(), changed, "header line");
-  for (const auto& p : small_params()) {
-    EXPECT_NE(text.find("# " + p.meaning + "\n"), std::string::npos) << p.key;
+  changed.rounds = {{3.0, 9}};
+  const std::string text = io::dump_config(changed, "header line");
+  for (const char* meaning : {"voxel edge, m", "use point times", "frames used", "a label", "red or green", "height, m"}) {
+    EXPECT_NE(text.find(std::string("# ") + meaning + "\n"), std::string::npos) << meaning;
   }
   EXPECT_NE(text.find("# header line\n"), std::string::npos);
   EXPECT_NE(text.find("stage:\n  # voxel edge, m\n  voxel_m: 0.1\n"), std::string::npos) << text;
@@ -103,61 +124,117 @@ TEST(ConfigFile, DumpListsEveryParameterAndLoadsBack) {
   EXPECT_EQ(back.colour, Colour::kGreen);
   EXPECT_EQ(back.name, changed.name);
   EXPECT_EQ(back.height_m, 2.0);
-  EXPECT_FALSE(load(dump_config(small_params(), Small{}, "")).height_m.has_value());  // null round-trips
+  ASSERT_EQ(back.rounds.size(), 1u);
+  EXPECT_EQ(back.rounds[0].iterations, 9);
+  EXPECT_FALSE(load(io::dump_config(Small{}, "")).height_m.has_value());  // null round-trips
 }
 
 TEST(ConfigFile, DoublesDumpExactly) {
   for (double v : {0.1, 1.0 / 3.0, 1e-5, 120.0, -2.5e10}) {
-    EXPECT_EQ(*config_parse_double(config_format_double(v)), v);
+    EXPECT_EQ(*io::config_parse_double(io::config_format_double(v)), v);
   }
-  EXPECT_EQ(config_format_double(2.0), "2.0");
-  EXPECT_FALSE(config_parse_double("nan").has_value());
+  EXPECT_EQ(io::config_format_double(2.0), "2.0");
+  EXPECT_FALSE(io::config_parse_double("nan").has_value());
 }
 
 TEST(ConfigFile, AssignmentFromCommandLine) {
   Small s;
-  apply_config_assignment(small_params(), "stage.iterations=12", "--set", s);
+  io::apply_config_assignments({"stage.iterations=12", "rounds.0.iterations=5"}, "--set", s);
   EXPECT_EQ(s.stage.iterations, 12);
-  EXPECT_THROW(apply_config_assignment(small_params(), "stage.iterations", "--set", s), InputError);
-  EXPECT_THROW(apply_config_assignment(small_params(), "nope=1", "--set", s), InputError);
+  ASSERT_EQ(s.rounds.size(), 1u);
+  EXPECT_EQ(s.rounds[0].iterations, 5);
+  EXPECT_THROW(io::apply_config_assignments({"stage.iterations"}, "--set", s), InputError);
+  EXPECT_THROW(io::apply_config_assignments({"nope=1"}, "--set", s), InputError);
 }
 
 TEST(ConfigFile, ToolAssignmentsOverrideTheDefaults) {
-  const ToolConfig c = tool_config_with({"sim.lidar_model=vlp16", "z.max_frames_per_fiducial=16"});
+  const cli::ToolConfig c = cli::tool_config_with({"sim.lidar_model=vlp16", "z.max_frames_per_fiducial=16"});
   EXPECT_EQ(c.sim.lidar_model, "vlp16");
   EXPECT_EQ(c.calibrate.z.max_frames_per_fiducial, 16u);
-  EXPECT_EQ(c.calibrate.refine.frames.max_frames, ToolConfig{}.calibrate.refine.frames.max_frames);
+  EXPECT_EQ(c.calibrate.refine.max_frames, cli::ToolConfig{}.calibrate.refine.max_frames);
   try {
-    tool_config_with({"z.max_frames_per_fiducal=16"});
+    cli::tool_config_with({"z.max_frames_per_fiducal=16"});
     ADD_FAILURE() << "a misspelt key was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("z.max_frames_per_fiducial"), std::string::npos) << e.what();
   }
 }
 
-TEST(ConfigFile, ToolTableDumpsAndReloadsFromAFile) {
-  // Every key unique, every meaning present, and the dump of the defaults loads back unchanged.
-  std::set<std::string> keys;
-  for (const auto& p : tool_config_params()) {
-    EXPECT_TRUE(keys.insert(p.key).second) << "duplicate " << p.key;
-    EXPECT_FALSE(p.meaning.empty()) << p.key;
+// Changes every field of any config: numbers, flags, texts, enums (to the next name), optionals,
+// and every item of every list.
+struct ChangeEverything {
+  template <class T>
+  void operator()(std::string_view, T& field, std::string_view) {
+    if constexpr (std::is_same_v<T, bool>) {
+      field = !field;
+    } else if constexpr (std::is_integral_v<T>) {
+      field = static_cast<T>(field + 3);
+    } else if constexpr (std::is_floating_point_v<T>) {
+      field = field * 1.5 + 0.25;
+    } else if constexpr (std::is_same_v<T, std::optional<double>>) {
+      field = field ? *field + 1.0 : 0.75;
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      field += "-x";
+    } else {
+      const auto names = enum_names(T{});
+      for (std::size_t i = 0; i < names.size(); ++i) {
+        if (names[i].first == field) {
+          field = names[(i + 1) % names.size()].first;
+          break;
+        }
+      }
+    }
   }
-  EXPECT_GT(keys.size(), 80u);
-  const ToolConfig defaults;
-  const std::string dump = dump_tool_config(defaults);
+  template <class S>
+  void section(std::string_view, S& sub) {
+    visit_config(*this, sub);
+  }
+  template <class S>
+  void list(std::string_view, std::vector<S>& items, std::string_view) {
+    for (S& item : items) visit_config(*this, item);
+  }
+};
+
+TEST(ConfigFile, EveryToolFieldChangedDumpsAndLoadsBackFromAFile) {
+  const std::vector<std::string> keys = cli::tool_config_keys();
+  EXPECT_EQ(std::set<std::string>(keys.begin(), keys.end()).size(), keys.size()) << "duplicate keys";
+  EXPECT_GT(keys.size(), 100u);
+  cli::ToolConfig changed;
+  ChangeEverything change;
+  visit_config(change, changed);
+  const std::string dump_default = cli::dump_tool_config({});
+  const std::string dump_changed = cli::dump_tool_config(changed);
   const auto path = std::filesystem::temp_directory_path() / ("insalign_cfg_" + std::to_string(::getpid()) + ".yaml");
-  { std::ofstream(path) << dump; }
-  const ToolConfig back = load_tool_config(path);
-  EXPECT_EQ(dump_tool_config(back), dump);
-  { std::ofstream(path) << "rough:\n  max_range_m: 60\nrefine:\n  method: occupancy_grid\n  frames:\n    max_frames: 40\n"; }
-  const ToolConfig changed = load_tool_config(path);
-  EXPECT_EQ(changed.calibrate.rough.max_range_m, 60.0);
+  { std::ofstream(path) << dump_changed; }
+  const cli::ToolConfig back = cli::load_tool_config(path);
+  EXPECT_EQ(cli::dump_tool_config(back), dump_changed);
+  // Every value line differs from the defaults' (so every field was reached and written).
+  std::istringstream a(dump_default), b(dump_changed);
+  std::string la, lb;
+  int values = 0, same = 0;
+  while (std::getline(a, la) && std::getline(b, lb)) {
+    if (la.empty() || la.find('#') != std::string::npos || la.back() == ':') continue;
+    ++values;
+    if (la == lb) {
+      ++same;
+      ADD_FAILURE() << "unchanged: " << la;
+    }
+  }
+  EXPECT_GE(values, static_cast<int>(keys.size()));
+  EXPECT_EQ(same, 0);
+  std::filesystem::remove(path);
+}
+
+TEST(ConfigFile, ToolKeysAreTheStructPathsAndErrorsNameTheLine) {
+  const auto path = std::filesystem::temp_directory_path() / ("insalign_cfg2_" + std::to_string(::getpid()) + ".yaml");
+  { std::ofstream(path) << "rough:\n  filter:\n    max_range_m: 60\nrefine:\n  method: occupancy-grid\n  max_frames: 40\n"; }
+  const cli::ToolConfig changed = cli::load_tool_config(path);
+  EXPECT_EQ(changed.calibrate.rough.filter.max_range_m, 60.0);
   EXPECT_EQ(changed.calibrate.refine.method, RefineMethod::kOccupancyGrid);
-  EXPECT_EQ(changed.calibrate.refine.frames.max_frames, 40u);
-  EXPECT_EQ(changed.calibrate.refine.frames.min_range_m, defaults.calibrate.refine.frames.min_range_m);
+  EXPECT_EQ(changed.calibrate.refine.max_frames, 40u);
   { std::ofstream(path) << "rough:\n  max_range: 60\n"; }
   try {
-    load_tool_config(path);
+    cli::load_tool_config(path);
     FAIL();
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), path.string());
@@ -167,4 +244,4 @@ TEST(ConfigFile, ToolTableDumpsAndReloadsFromAFile) {
 }
 
 }  // namespace
-}  // namespace insalign::io
+}  // namespace insalign

@@ -7,7 +7,9 @@
 
 #include "core/errors.hpp"
 #include "core/global_init.hpp"
+#include "core/occupancy.hpp"
 #include "sim/world_dataset.hpp"
+#include "test_world.hpp"
 
 namespace insalign {
 namespace {
@@ -22,13 +24,13 @@ TEST(GroundPlane, FitsTiltedGroundAmongWalls) {
   for (int i = 0; i < 8000; ++i) p_lidar.push_back(T_lidar_world * Vec3(20 * u(rng), 20 * u(rng), noise(rng)));
   for (int i = 0; i < 6000; ++i)  // a wall, a lot of points
     p_lidar.push_back(T_lidar_world * Vec3(6 + noise(rng), 15 * u(rng), 4 + 4 * u(rng)));
-  const GroundPlane g = fit_ground_plane(p_lidar, GlobalInitConfig{});
+  const GroundPlane g = fit_ground_plane(p_lidar, GroundConfig{});
   ASSERT_TRUE(g.valid);
   const Vec3 n_true = T_lidar_world.linear() * Vec3::UnitZ();
-  EXPECT_LT(std::acos(std::min(1.0, g.normal.dot(n_true))) * kDegPerRad, 0.2);
+  EXPECT_LT(std::acos(std::min(1.0, g.normal_lidar.dot(n_true))) * kDegPerRad, 0.2);
   EXPECT_NEAR(g.height_m, 1.85, 0.02);
-  const Mat3 R = levelling_rotation(g.normal);
-  EXPECT_LT((R * g.normal - Vec3::UnitZ()).norm(), 1e-9);
+  const Mat3 R = levelling_rotation(g.normal_lidar);
+  EXPECT_LT((R * g.normal_lidar - Vec3::UnitZ()).norm(), 1e-9);
 }
 
 // Planar motions A (INS) and B = X^-1 A X (levelled LiDAR) for a known planar X.
@@ -123,9 +125,9 @@ Iso3 yawed_about_ins_z(const Iso3& T_ins_lidar, double deg) {
 TEST(GlobalInit, NoInitReachesStage1BasinForAnyYawAndInsAxes) {
   for (std::uint64_t seed : {11u, 12u, 13u, 14u}) {
     const SimDrive drive = sim_drive(seed, seed % 2 ? sim::InsAxes::kXForward : sim::InsAxes::kYForward);
-    const GlobalInitResult res = initialise_extrinsic(drive.data, std::nullopt);
+    const GlobalInitResult res = initialise_extrinsic(testing::store_of(drive.data), std::nullopt);
     const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, drive.world->T_ins_lidar_true);
-    EXPECT_EQ(res.source, "data");
+    EXPECT_EQ(res.source, InitSource::kData);
     EXPECT_LT(err.angle_deg, 5.0) << "seed " << seed << ": " << res.explanation;
     EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << "seed " << seed << ": " << res.explanation;
     EXPECT_FALSE(res.explanation.empty());
@@ -141,30 +143,32 @@ TEST(GlobalInit, WrongInitIsOverriddenAndGoodInitKept) {
       {"x and y swapped (INS axis convention mixed up)", yawed_about_ins_z(T_true, -90.0)},
   };
   for (const auto& w : wrong) {
-    const GlobalInitResult res = initialise_extrinsic(drive.data, w.T_init);
+    const GlobalInitResult res = initialise_extrinsic(testing::store_of(drive.data), w.T_init);
     const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, T_true);
-    EXPECT_EQ(res.source, "data-overrides-init") << w.what << ": " << res.explanation;
+    EXPECT_EQ(res.source, InitSource::kDataOverridesInit) << w.what << ": " << res.explanation;
     EXPECT_LT(err.angle_deg, 5.0) << w.what;
     EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << w.what;
   }
   // The simulator's guess: 20 deg and 0.5 m off, inside stage 1's basin: kept as given.
-  const GlobalInitResult kept = initialise_extrinsic(drive.data, drive.world->T_ins_lidar_init);
-  EXPECT_EQ(kept.source, "init") << kept.explanation;
+  const GlobalInitResult kept = initialise_extrinsic(testing::store_of(drive.data), drive.world->T_ins_lidar_init);
+  EXPECT_EQ(kept.source, InitSource::kInit) << kept.explanation;
   EXPECT_TRUE(kept.T_ins_lidar.isApprox(drive.world->T_ins_lidar_init));
   // trust_init returns even a wrong init unchanged.
   GlobalInitConfig trust;
   trust.trust_init = true;
-  const GlobalInitResult trusted = initialise_extrinsic(drive.data, wrong[0].T_init, trust);
-  EXPECT_EQ(trusted.source, "init");
+  const GlobalInitResult trusted = initialise_extrinsic(testing::store_of(drive.data), wrong[0].T_init, trust);
+  EXPECT_EQ(trusted.source, InitSource::kInit);
   EXPECT_TRUE(trusted.T_ins_lidar.isApprox(wrong[0].T_init));
 }
 
 TEST(GlobalInit, StandstillIsUnobservable) {
   const SimDrive drive = sim_drive(31, sim::InsAxes::kXForward, sim::TrajectoryKind::kStandstill, 3.0);
-  EXPECT_THROW(initialise_extrinsic(drive.data, std::nullopt), UnobservableError);
+  const GlobalInitResult none = initialise_extrinsic(testing::store_of(drive.data), std::nullopt);
+  EXPECT_EQ(none.outcome.status, StageStatus::kUndetermined);
+  EXPECT_NE(none.outcome.message.find("moves only"), std::string::npos) << none.outcome.message;
   // With an init the data cannot check, the init goes on unchanged and the reason is given.
-  const GlobalInitResult res = initialise_extrinsic(drive.data, drive.world->T_ins_lidar_init);
-  EXPECT_EQ(res.source, "init");
+  const GlobalInitResult res = initialise_extrinsic(testing::store_of(drive.data), drive.world->T_ins_lidar_init);
+  EXPECT_EQ(res.source, InitSource::kInit);
   EXPECT_TRUE(res.T_ins_lidar.isApprox(drive.world->T_ins_lidar_init));
   EXPECT_NE(res.explanation.find("unchecked"), std::string::npos);
 }

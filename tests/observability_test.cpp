@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "core/rough.hpp"
-#include "plane_scene.hpp"
+#include "test_world.hpp"
 
 namespace insalign {
 namespace {
@@ -18,7 +18,7 @@ std::array<bool, 6> flags(std::initializer_list<int> undetermined) {
 
 std::string describe_flags(const DofVerdict& v) {
   std::string s;
-  for (int i = 0; i < 6; ++i) s += std::string(dof_names()[i]) + (v.determined[i] ? "=det " : "=UNDET ");
+  for (int i = 0; i < 6; ++i) s += std::string(kDofNames[i]) + (v.determined[i] ? "=det " : "=UNDET ");
   return s + "| " + v.explanation;
 }
 
@@ -73,13 +73,15 @@ class DriveVerdict : public ::testing::TestWithParam<Case> {};
 
 TEST_P(DriveVerdict, FlagsTheRightDegreesOfFreedom) {
   const Case& c = GetParam();
-  testing::PlaneScene scene = testing::town_scene(3);
+  testing::Scene scene = testing::town_scene(3);
   if (c.ground_only) scene.boxes.clear();
-  const auto drive = testing::make_drive(scene, c.drive, testing::roof_mount(60.0), c.frames, 5);
+  const auto drive = testing::town_drive(c.drive, testing::roof_mount(60.0), c.frames, 5, scene);
   const Iso3 init = testing::perturbed(drive.T_ins_lidar_true, 1.0, 0.05, 9);
-  const RoughResult r = calibrate_rough(drive.data, init);
+  const FrameStore store = testing::store_of(drive.data);
+  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init);
   EXPECT_EQ(r.observability.determined, c.expected) << c.name << ": " << describe_flags(r.observability);
   EXPECT_EQ(unobservable_reason(r.observability).has_value(), c.fatal) << c.name;
+  EXPECT_EQ(r.outcome.status == StageStatus::kUndetermined, c.fatal) << c.name;
   EXPECT_FALSE(r.observability.explanation.empty());
   EXPECT_FALSE(r.tz_estimated);
 }

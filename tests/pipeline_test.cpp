@@ -21,8 +21,9 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
   const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
   const Dataset data = sim::world_dataset(world);  // starts from the simulator's 20 deg / 0.5 m guess
   PipelineConfig config;
-  config.repeatability_segments = 2;
-  const CalibrationResult r = run_calibration(data, config);
+  config.repeatability.segments = 2;
+  const FrameStore store = make_frame_store(data, config);
+  const CalibrationResult r = run_calibration(store, config);
   ASSERT_TRUE(r.refine.has_value());
   const ExtrinsicError rough = extrinsic_error(r.rough.T_ins_lidar, world->T_ins_lidar_true);
   const ExtrinsicError refined = extrinsic_error(r.refine->T_ins_lidar, world->T_ins_lidar_true);
@@ -32,11 +33,15 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
   EXPECT_NEAR(r.time_offset_s, sc.time_offset_s, 0.002);
   for (const std::string& w : r.warnings) EXPECT_EQ(w.find("stage 2 moved"), std::string::npos) << w;
   // The reported stddev is never below what the segments' disagreement shows.
-  ASSERT_EQ(r.segments.size(), 2u);
-  ASSERT_TRUE(r.segments[0].ok && r.segments[1].ok) << r.segments[0].message << r.segments[1].message;
-  for (int i : {0, 1, 3, 4, 5}) EXPECT_GE(r.stddev[i], r.segment_spread[i] / (1.128 * std::sqrt(2.0)) - 1e-12) << i;
+  const auto& segments = r.repeatability.segments;
+  ASSERT_EQ(segments.size(), 2u);
+  ASSERT_TRUE(segments[0].ok && segments[1].ok) << segments[0].message << segments[1].message;
+  for (int i : {0, 1, 3, 4, 5})
+    EXPECT_GE(r.stddev[i], r.repeatability.spread[i] / (1.128 * std::sqrt(2.0)) - 1e-12) << i;
+  // Sweeps are decoded once however many stages and segments read them.
+  EXPECT_LE(r.frames_decoded, data.frames.frames.size());
   std::printf("segments ok: %d %d; rough: %.1f mm, %.4f deg; refined: %.1f mm, %.4f deg; offset %.2f ms\n",
-              int(r.segments[0].ok), int(r.segments[1].ok),
+              int(segments[0].ok), int(segments[1].ok),
               1e3 * rough.dt_m.head<2>().norm(), rough.angle_deg, 1e3 * refined.dt_m.head<2>().norm(),
               refined.angle_deg, 1e3 * r.time_offset_s);
 }
@@ -58,9 +63,10 @@ TEST(Pipeline, TzErrorOfTheGuessDoesNotLeakIntoTheHorizontalLeverArm) {
   T_guess.linear() = so3_exp(Vec3(1.0, -1.0, 2.0) * kRadPerDeg) * T_guess.linear();
   data.T_ins_lidar_init = T_guess;
   PipelineConfig config;
-  config.repeatability_segments = 0;
-  const CalibrationResult r = run_calibration(data, config);
-  ASSERT_TRUE(r.z.determined) << r.z.explanation;
+  config.repeatability.segments = 0;
+  const FrameStore store = make_frame_store(data, config);
+  const CalibrationResult r = run_calibration(store, config);
+  ASSERT_TRUE(r.z.determined()) << r.z.outcome.message;
   const ExtrinsicError rough = extrinsic_error(r.rough.T_ins_lidar, world->T_ins_lidar_true);
   const ExtrinsicError final_error = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   std::printf("horizontal lever arm error: stage 1 (tz 0.4 m off) %.2f mm, final %.2f mm; tz %.1f mm\n",

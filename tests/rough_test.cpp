@@ -5,7 +5,7 @@
 #include <chrono>
 #include <random>
 
-#include "plane_scene.hpp"
+#include "test_world.hpp"
 #include "sim/world_dataset.hpp"
 
 namespace insalign {
@@ -86,11 +86,11 @@ TEST(Rough, GaussNewtonHessianMatchesNumericAtZeroResidual) {
 }
 
 TEST(Rough, ConvergesFromTwentyDegreesAndHalfAMetreOnAFigureEight) {
-  const testing::PlaneScene scene = testing::town_scene(1);
   for (double yaw : {135.0}) {
-    const auto drive = testing::make_drive(scene, Drive::kFigure8, testing::roof_mount(yaw), 240, 2);
+    const auto drive = testing::town_drive(Drive::kFigure8, testing::roof_mount(yaw), 240, 2);
     const Iso3 init = testing::perturbed(drive.T_ins_lidar_true, 20.0, 0.5, static_cast<unsigned>(yaw) + 1);
-    const RoughResult r = calibrate_rough(drive.data, init);
+    const FrameStore store = testing::store_of(drive.data);
+    const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init);
     const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, drive.T_ins_lidar_true);
     for (const auto& log : r.convergence) {
       const ExtrinsicError el = extrinsic_error(log.T_ins_lidar, drive.T_ins_lidar_true);
@@ -98,7 +98,7 @@ TEST(Rough, ConvergesFromTwentyDegreesAndHalfAMetreOnAFigureEight) {
                   log.round, log.planes, log.residuals, log.cost, el.drpy_deg.x(), el.drpy_deg.y(), el.drpy_deg.z(),
                   el.dt_m.x(), el.dt_m.y(), el.dt_m.z());
     }
-    std::printf("yaw %.0f: %.2f s, frames %zu, sigma %.4f m, verdict: %s\n", yaw, r.wall_time_s, r.frames_used,
+    std::printf("yaw %.0f: %.2f s, frames %zu, sigma %.4f m, verdict: %s\n", yaw, r.outcome.wall_time_s, r.frames_used,
                 r.residual_sigma_m, r.observability.explanation.c_str());
     EXPECT_LT(e.drpy_deg.maxCoeff(), 0.2) << "yaw " << yaw;
     EXPECT_LT(e.dt_m.x(), 0.03) << "yaw " << yaw;
@@ -117,12 +117,13 @@ TEST(Rough, ConvergesOnAShortReducedResolutionSimulatedDrive) {
   config.init_trans_err_m = 0.5;
   auto world = std::make_shared<const sim::World>(sim::build_world(config));
   const Dataset data = sim::world_dataset(world);
-  const RoughResult r = calibrate_rough(data, world->T_ins_lidar_init);
+  const FrameStore store = testing::store_of(data);
+  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init);
   const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   const ExtrinsicError e0 = extrinsic_error(world->T_ins_lidar_init, world->T_ins_lidar_true);
   std::printf("start %.1f deg %.2f m -> rot %.3f %.3f %.3f deg, t %.2f %.2f %.2f cm in %.2f s; %s\n", e0.angle_deg,
               e0.dt_norm_m, e.drpy_deg.x(), e.drpy_deg.y(), e.drpy_deg.z(), e.dt_m.x() * 100, e.dt_m.y() * 100,
-              e.dt_m.z() * 100, r.wall_time_s, r.observability.explanation.c_str());
+              e.dt_m.z() * 100, r.outcome.wall_time_s, r.observability.explanation.c_str());
   EXPECT_GT(e0.angle_deg, 19.0);
   EXPECT_LT(e.drpy_deg.maxCoeff(), 0.2);
   EXPECT_LT(e.dt_m.x(), 0.03);
@@ -131,6 +132,7 @@ TEST(Rough, ConvergesOnAShortReducedResolutionSimulatedDrive) {
   EXPECT_EQ(r.observability.determined, (std::array<bool, 6>{true, true, false, true, true, true}))
       << r.observability.explanation;
   EXPECT_FALSE(unobservable_reason(r.observability).has_value());
+  EXPECT_EQ(r.outcome.status, StageStatus::kOk) << r.outcome.message;
   EXPECT_DOUBLE_EQ(r.T_ins_lidar.translation().z(), world->T_ins_lidar_init.translation().z());
 }
 

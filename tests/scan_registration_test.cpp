@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include "core/scan_registration.hpp"
+#include "core/voxel_grid.hpp"
 
 namespace insalign {
 namespace {

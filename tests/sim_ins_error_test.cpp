@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "io/config_file.hpp"
+#include "cli/tool_config.hpp"
 #include "sim/ins_error.hpp"
 #include "sim/simulate.hpp"
 
@@ -161,7 +161,7 @@ TEST(SimInsError, EventsThatDoNotFitAreRefusedAndTheConfigKeysWork) {
   c.duration_s = 20.0;
   c.ins_error.outages = 3;
   EXPECT_THROW(build_world(c), std::invalid_argument);
-  const io::ToolConfig tool = io::tool_config_with({"sim.ins_error.model=drift", "sim.ins_error.wrong_fixes=2"});
+  const cli::ToolConfig tool = cli::tool_config_with({"sim.ins_error.model=drift", "sim.ins_error.wrong_fixes=2"});
   EXPECT_EQ(tool.sim.ins_error.model, InsErrorModel::kDrift);
   EXPECT_EQ(tool.sim.ins_error.wrong_fixes, 2);
   InsErrorModel m = InsErrorModel::kRtkFixed;

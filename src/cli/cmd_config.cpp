@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "io/config_file.hpp"
+#include "cli/tool_config.hpp"
 
 namespace insalign::cli {
 
@@ -24,14 +24,14 @@ Command make_config_command() {
   command.run = [o] {
     if (!o->check.empty()) {
       // The dump of the loaded file shows what the run will use, defaults filled in.
-      fmt::print("{}", io::dump_tool_config(io::load_tool_config(o->check)));
+      fmt::print("{}", dump_tool_config(load_tool_config(o->check)));
       return kExitOk;
     }
     if (!o->dump) {
       fmt::print(stderr, "insalign config: give --dump or --check FILE\n");
       return kExitUsage;
     }
-    fmt::print("{}", io::dump_tool_config());
+    fmt::print("{}", dump_tool_config());
     return kExitOk;
   };
   return command;

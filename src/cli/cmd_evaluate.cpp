@@ -3,11 +3,8 @@
 #include <fmt/core.h>
 
 #include <cmath>
-#include <fstream>
 #include <limits>
-#include <nlohmann/json.hpp>
 #include <optional>
-#include <sstream>
 
 #include "cli/commands.hpp"
 #include "core/errors.hpp"
@@ -24,40 +21,9 @@ struct EvaluateOptions {
   bool ignore_z = false;
 };
 
-nlohmann::json read_json(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "", "cannot open file");
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  try {
-    return nlohmann::json::parse(buffer.str());
-  } catch (const nlohmann::json::parse_error& e) {
-    throw InputError(path, "byte " + std::to_string(e.byte), "not valid JSON");
-  }
-}
-
-struct Extrinsic {
-  Iso3 T_ins_lidar = Iso3::Identity();
-  std::optional<double> time_offset_s;
-};
-
-Extrinsic read_extrinsic(const std::string& path) {
-  const nlohmann::json j = read_json(path);
-  if (!j.is_object() || !j.contains("T_ins_lidar"))
-    throw InputError(path, "", "no \"T_ins_lidar\" key (expected a 4x4 row-major array of arrays)");
-  Extrinsic e;
-  e.T_ins_lidar = io::transform_from_json(j.at("T_ins_lidar"), path);
-  if (j.contains("time_offset_s")) {
-    if (!j.at("time_offset_s").is_number() || !std::isfinite(j.at("time_offset_s").get<double>()))
-      throw InputError(path, "", "\"time_offset_s\" is not a finite number");
-    e.time_offset_s = j.at("time_offset_s").get<double>();
-  }
-  return e;
-}
-
 int run_evaluate(const EvaluateOptions& o) {
-  const Extrinsic gt = read_extrinsic(o.gt);
-  const Extrinsic est = read_extrinsic(o.result);
+  const io::ExtrinsicFile gt = io::read_extrinsic_file(o.gt);
+  const io::ExtrinsicFile est = io::read_extrinsic_file(o.result);
   const ExtrinsicError e = extrinsic_error(est.T_ins_lidar, gt.T_ins_lidar);
   const double dt_checked_m = o.ignore_z ? e.dt_m.head<2>().norm() : e.dt_norm_m;
 

@@ -2,14 +2,12 @@
 // to inspect a calibration in CloudCompare or RViz.
 #include <fmt/core.h>
 
-#include <fstream>
 #include <memory>
-
-#include <nlohmann/json.hpp>
 
 #include "cli/commands.hpp"
 #include "core/errors.hpp"
-#include "core/refine.hpp"
+#include "core/pipeline.hpp"
+#include "core/stitch.hpp"
 #include "io/dataset.hpp"
 #include "io/extrinsic_json.hpp"
 #include "io/pcd.hpp"
@@ -30,27 +28,12 @@ int run_stitch(const StitchOptions& o) {
   io::DatasetPaths paths{o.lidar_dir, o.poses, std::nullopt, std::nullopt};
   const Dataset data = io::load_dataset(paths);
   // The extrinsic: a result extrinsic.json ("T_ins_lidar") or an OpenCalib JSON (T_lidar_ins).
-  Iso3 T_ins_lidar;
-  double time_offset_s = o.time_offset_s;
-  {
-    std::ifstream in(o.extrinsic);
-    if (!in) throw InputError(o.extrinsic, "", "cannot open");
-    nlohmann::json j;
-    try {
-      j = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw InputError(o.extrinsic, "byte " + std::to_string(e.byte), "malformed JSON");
-    }
-    T_ins_lidar = j.contains("T_ins_lidar") ? io::transform_from_json(j["T_ins_lidar"], o.extrinsic)
-                                            : io::read_opencalib_extrinsic(o.extrinsic);
-    if (!o.time_offset_given && j.contains("time_offset_s") && j["time_offset_s"].is_number()) {
-      time_offset_s = j["time_offset_s"].get<double>();
-    }
-  }
-  StitchConfig config;
-  config.voxel_m = o.voxel_m;
-  config.frames.max_frames = o.max_frames;
-  const std::vector<Vec3f> p_world = stitch_map(data, T_ins_lidar, time_offset_s, config);
+  const io::ExtrinsicFile extrinsic = io::read_extrinsic_file(o.extrinsic);
+  const double time_offset_s = o.time_offset_given ? o.time_offset_s : extrinsic.time_offset_s.value_or(0.0);
+  PipelineConfig defaults;
+  const FrameStore store = make_frame_store(data, defaults);
+  const std::vector<std::size_t> frames = spread_frames(store, o.max_frames, time_offset_s);
+  const std::vector<Vec3f> p_world = stitch_map(store, frames, extrinsic.T_ins_lidar, time_offset_s, o.voxel_m);
   const std::filesystem::path out = o.out;
   if (out.extension() == ".ply") {
     io::write_ply(out, p_world);
@@ -61,7 +44,7 @@ int run_stitch(const StitchOptions& o) {
     io::write_pcd(out, map, io::PcdEncoding::kBinaryCompressed, io::PcdTimeField::kNone);
   }
   fmt::print("{} points from {} frames written to {} (world frame recentred by [{:.3f}, {:.3f}, {:.3f}] m)\n",
-             p_world.size(), std::min(o.max_frames, data.frames.frames.size()), out.string(), data.world_origin_m.x(),
+             p_world.size(), frames.size(), out.string(), data.world_origin_m.x(),
              data.world_origin_m.y(), data.world_origin_m.z());
   return kExitOk;
 }

@@ -6,16 +6,6 @@
 
 namespace insalign {
 
-namespace {
-
-double wrap_pi(double a) {
-  a = std::fmod(a + M_PI, 2.0 * M_PI);
-  if (a < 0) a += 2.0 * M_PI;
-  return a - M_PI;
-}
-
-}  // namespace
-
 DriveSummary summarize_poses(const std::vector<StampedPose>& poses, double speed_window_s) {
   DriveSummary s;
   s.poses = poses.size();

@@ -40,12 +40,14 @@ Vec3 so3_log(const Mat3& R) {
   return aa.angle() * aa.axis();
 }
 
-Iso3 perturb(const Iso3& T, const Vec6& delta_rho_omega) {
-  Iso3 out = T;
-  out.linear() = T.linear() * so3_exp(delta_rho_omega.tail<3>());
-  out.translation() = T.translation() + delta_rho_omega.head<3>();
+Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta) {
+  Iso3 out = T_ins_lidar;
+  out.linear() = nearest_rotation(so3_exp(delta.tail<3>()) * T_ins_lidar.linear());
+  out.translation() = T_ins_lidar.translation() + delta.head<3>();
   return out;
 }
+
+double wrap_pi(double angle_rad) { return std::remainder(angle_rad, 6.283185307179586); }
 
 Mat3 nearest_rotation(const Mat3& M) {
   Eigen::JacobiSVD<Mat3> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);

@@ -27,10 +27,13 @@ Iso3 make_transform(const Vec3& t_m, const Vec3& rpy_deg);
 Mat3 so3_exp(const Vec3& omega_rad);
 Vec3 so3_log(const Mat3& R);
 
-/// Apply a small right-multiplied perturbation: T * exp([rho, omega]) with the rotation applied
-/// separately (translation not coupled), the parametrisation used by the stage optimisers:
-/// R' = R * exp(omega), t' = t + rho.
-Iso3 perturb(const Iso3& T, const Vec6& delta_rho_omega);
+/// The one perturbation of the extrinsic every stage optimises and reports in: R' = exp(w) R,
+/// t' = t + rho, delta = [rho; w], so w is about the INS axes (yaw = about the INS vertical)
+/// whatever the mount.
+Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta_rho_omega);
+
+/// An angle wrapped to [-pi, pi].
+double wrap_pi(double angle_rad);
 
 /// Orthonormalise a nearly-rotation matrix (closest rotation in the Frobenius norm).
 Mat3 nearest_rotation(const Mat3& M);

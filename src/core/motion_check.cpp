@@ -3,25 +3,20 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
-#include <cstdio>
+#include <fmt/format.h>
 
 namespace insalign {
 namespace {
 
-std::string format(const char* f, double a) {
-  char buf[96];
-  std::snprintf(buf, sizeof buf, f, a);
-  return buf;
-}
 
 /// "0.4 mm", "37 cm", "120 m": a distance a person reads at a glance.
 std::string distance_words(double d_m) {
-  if (d_m < 0.01) return format("%.1f mm", d_m * 1e3);
-  if (d_m < 1.0) return format("%.0f cm", d_m * 1e2);
-  return format("%.0f m", d_m);
+  if (d_m < 0.01) return fmt::format("{:.1f} mm", d_m * 1e3);
+  if (d_m < 1.0) return fmt::format("{:.0f} cm", d_m * 1e2);
+  return fmt::format("{:.0f} m", d_m);
 }
 
-std::string duration_words(double t_s) { return t_s < 10.0 ? format("%.1f s", t_s) : format("%.0f s", t_s); }
+std::string duration_words(double t_s) { return t_s < 10.0 ? fmt::format("{:.1f} s", t_s) : fmt::format("{:.0f} s", t_s); }
 
 double heading_rad(const Iso3& T_world_ins) {
   // Rotation about the world vertical (ZYX yaw); the same for any choice of the INS forward axis
@@ -68,7 +63,7 @@ MotionCheck check_motion(const PoseStream& poses, const std::vector<FrameInfo>& 
     out.distance_m += d;
     if (t - t_prev > 0) out.max_speed_mps = std::max(out.max_speed_mps, d / (t - t_prev));
     double dpsi = heading_rad(T) - heading_rad(T_prev);
-    dpsi = std::remainder(dpsi, 2.0 * M_PI);
+    dpsi = wrap_pi(dpsi);
     heading += dpsi;
     out.heading_change_deg += std::abs(dpsi) * kDegPerRad;
     heading_min = std::min(heading_min, heading), heading_max = std::max(heading_max, heading);
@@ -112,19 +107,19 @@ MotionCheck check_motion(const PoseStream& poses, const std::vector<FrameInfo>& 
         "between views at different headings. " + std::string(kAdvice);
   } else if (!turned || !spread) {
     out.explanation =
-        "the vehicle drove " + drive + " but turned only " + format("%.0f deg", out.heading_change_deg) +
-        " in total (heading spread " + format("%.0f deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
-        format("%.2f", out.lever_arm_sensitivity) + ", need " + format("%.0f deg", config.min_heading_change_deg) +
-        " and " + format("%.2f", config.min_lever_arm_sensitivity) +
+        "the vehicle drove " + drive + " but turned only " + fmt::format("{:.0f} deg", out.heading_change_deg) +
+        " in total (heading spread " + fmt::format("{:.0f} deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
+        fmt::format("{:.2f}", out.lever_arm_sensitivity) + ", need " + fmt::format("{:.0f} deg", config.min_heading_change_deg) +
+        " and " + fmt::format("{:.2f}", config.min_lever_arm_sensitivity) +
         "). With an almost constant heading the lever arm x, y is not determined (a lever-arm error moves "
         "every point of the map alike, so the map stays sharp), nor the roll about the direction of travel; "
         "the time offset trades against the lever arm along the direction of travel. Only pitch and yaw are "
         "seen, through the distance driven. " + std::string(kAdvice);
   } else {
     out.explanation = "the drive determines roll, pitch, yaw and the lever arm x, y: " + drive + ", " +
-                      format("%.0f deg", out.heading_change_deg) + " of turning, heading spread " +
-                      format("%.0f deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
-                      format("%.2f", out.lever_arm_sensitivity) +
+                      fmt::format("{:.0f} deg", out.heading_change_deg) + " of turning, heading spread " +
+                      fmt::format("{:.0f} deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
+                      fmt::format("{:.2f}", out.lever_arm_sensitivity) +
                       ". tz needs fiducials or --ins-height-m: planar driving never shows it.";
   }
   return out;

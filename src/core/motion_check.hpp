@@ -39,6 +39,14 @@ struct MotionCheckConfig {
   double speed_window_s = 0.5;
 };
 
+template <class V>
+void visit_config(V& v, MotionCheckConfig& c) {
+  v("min_distance_m", c.min_distance_m, "the drive must cover at least this path length, m");
+  v("min_heading_change_deg", c.min_heading_change_deg, "total |heading change| needed (90 = one proper turn), deg");
+  v("min_lever_arm_sensitivity", c.min_lever_arm_sensitivity, "lever-arm sensitivity needed (0.35 = a 41 deg turn with equal legs)");
+  v("speed_window_s", c.speed_window_s, "speeds are measured over windows at least this long, s");
+}
+
 struct MotionCheck {
   bool ok = false;
   double distance_m = 0.0;           ///< path length of the INS origin over the frames' span

@@ -28,11 +28,6 @@ namespace insalign {
 // and tz. Without this test the noise test declared tz determined (formal 3 mm) on a
 // drive where the estimate was 10 cm off.
 
-const std::array<const char*, 6>& dof_names() {
-  static const std::array<const char*, 6> names{"tx", "ty", "tz", "roll", "pitch", "yaw"};
-  return names;
-}
-
 bool DofVerdict::all_determined() const {
   for (bool d : determined)
     if (!d) return false;
@@ -48,7 +43,7 @@ std::string dof_numbers(const DofVerdict& v, int i, const ObservabilityConfig& c
   const char* u = trans ? "cm" : "deg";
   std::ostringstream os;
   os.precision(2);
-  os << dof_names()[i] << ": +-" << v.stddev_at_removal(i) * unit << ' ' << u << " (limit "
+  os << kDofNames[i] << ": +-" << v.stddev_at_removal(i) * unit << ' ' << u << " (limit "
      << (trans ? c.max_stddev_trans_m * 100.0 : c.max_stddev_rot_deg) << ' ' << u << ")";
   if (v.shift_at_target_m(i) > 0.0) {
     os << ", a " << (trans ? c.target_trans_m * 100.0 : c.target_rot_deg) << ' ' << u << " change moves the points "
@@ -64,7 +59,7 @@ std::string describe(const DofVerdict& v, const ObservabilityConfig& config) {
   if (undetermined.empty()) return "all six degrees of freedom are determined";
   std::ostringstream os;
   os << "undetermined:";
-  for (int i : undetermined) os << ' ' << dof_names()[i];
+  for (int i : undetermined) os << ' ' << kDofNames[i];
   os << ". ";
   const bool txy = !v.determined[0] || !v.determined[1];
   const bool any_rot = !v.determined[3] || !v.determined[4] || !v.determined[5];

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "core/geometry.hpp"
+#include "core/stage.hpp"
 
 namespace insalign {
 
@@ -29,6 +30,15 @@ struct ObservabilityConfig {
   /// See observability.cpp for why these values.
 };
 
+template <class V>
+void visit_config(V& v, ObservabilityConfig& c) {
+  v("max_stddev_trans_m", c.max_stddev_trans_m, "a translation DOF is determined below this standard deviation, m");
+  v("max_stddev_rot_deg", c.max_stddev_rot_deg, "a rotation DOF is determined below this standard deviation, deg");
+  v("target_trans_m", c.target_trans_m, "leverage test: translation change the points must feel, m");
+  v("target_rot_deg", c.target_rot_deg, "leverage test: rotation change the points must feel, deg");
+  v("min_shift_m", c.min_shift_m, "leverage test: RMS point shift needed at the target change, m");
+}
+
 struct DofVerdict {
   std::array<bool, 6> determined{};  ///< tx ty tz roll pitch yaw
   Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());  ///< m, rad; inf if undetermined
@@ -44,9 +54,6 @@ struct DofVerdict {
 
   bool all_determined() const;
 };
-
-/// Names of the DOFs in verdict order: "tx", "ty", "tz", "roll", "pitch", "yaw".
-const std::array<const char*, 6>& dof_names();
 
 /// Per-DOF verdict from the 6x6 information (J^T J) and the residual standard deviation.
 /// Undetermined DOFs are removed greedily (largest standard deviation first) until the rest

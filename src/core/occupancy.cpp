@@ -97,6 +97,12 @@ std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxe
   return static_cast<std::size_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
 }
 
+double occupancy_score(const std::vector<Vec3>& p_world, double voxel_m) {
+  std::vector<Vec3f> p(p_world.size());
+  for (std::size_t i = 0; i < p.size(); ++i) p[i] = p_world[i].cast<float>();
+  return static_cast<double>(count_occupied_voxels(p, voxel_m));
+}
+
 double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m) {
   const Vec3f half = Vec3f::Constant(static_cast<float>(0.5 * voxel_m));
   return 0.5 * static_cast<double>(count_occupied_voxels(p_world, voxel_m) +

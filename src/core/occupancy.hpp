@@ -16,6 +16,9 @@ namespace insalign {
 std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxel_m,
                                   const Vec3f& grid_shift_m = Vec3f::Zero());
 
+/// The same for double-precision points (the initialisation's scores), as a double.
+double occupancy_score(const std::vector<Vec3>& p_world, double voxel_m);
+
 /// Occupancy averaged over two grids staggered by half a voxel along the diagonal: a surface that
 /// happens to lie on a voxel boundary of one grid lies mid-voxel in the other, which removes most
 /// of the count's dependence on where the grid falls.

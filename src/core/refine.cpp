@@ -10,10 +10,9 @@
 #include <array>
 #include <chrono>
 #include <cmath>
-#include <sstream>
+#include <fmt/format.h>
 
 #include "core/deskew.hpp"
-#include "core/errors.hpp"
 #include "core/occupancy.hpp"
 
 namespace insalign {
@@ -40,69 +39,8 @@ State apply(const State& s, const Vec7& delta) {
   return out;
 }
 
-// Sweep duration guess from the frame spacing (one revolution per frame), with slack.
-double sweep_span_guess(const std::vector<FrameInfo>& frames) {
-  if (frames.size() < 2) return 0.12;
-  std::vector<double> gaps;
-  for (std::size_t i = 1; i < frames.size(); ++i) gaps.push_back(frames[i].t_end_s - frames[i - 1].t_end_s);
-  std::nth_element(gaps.begin(), gaps.begin() + gaps.size() / 2, gaps.end());
-  return std::clamp(gaps[gaps.size() / 2], 0.02, 0.25) * 1.1 + 0.005;
-}
-
-// Range filter, per-frame voxel downsampling in the LiDAR frame and an even thinning; each kept
-// point keeps its own time so it can be deskewed again for every candidate extrinsic.
-Sweep reduce_sweep(const Sweep& raw, const FramePickConfig& config) {
-  std::vector<Vec3f> kept_points;
-  std::vector<float> kept_dt;
-  const float r2_min = static_cast<float>(config.min_range_m * config.min_range_m);
-  const float r2_max = static_cast<float>(config.max_range_m * config.max_range_m);
-  for (std::size_t i = 0; i < raw.size(); ++i) {
-    const float r2 = raw.p_lidar[i].squaredNorm();
-    if (!(r2 >= r2_min && r2 <= r2_max)) continue;  // also drops NaN
-    kept_points.push_back(raw.p_lidar[i]);
-    if (raw.has_time()) kept_dt.push_back(raw.dt_s[i]);
-  }
-  std::vector<std::uint32_t> idx = voxel_downsample_indices(kept_points, config.frame_voxel_m);
-  if (config.max_points_per_frame > 0 && idx.size() > config.max_points_per_frame) {
-    std::vector<std::uint32_t> thin(config.max_points_per_frame);
-    const double stride = static_cast<double>(idx.size()) / static_cast<double>(thin.size());
-    for (std::size_t k = 0; k < thin.size(); ++k) thin[k] = idx[static_cast<std::size_t>(k * stride)];
-    idx.swap(thin);
-  }
-  Sweep out;
-  out.name = raw.name;
-  out.t_end_s = raw.t_end_s;
-  out.p_lidar.reserve(idx.size());
-  for (std::size_t i : idx) {
-    out.p_lidar.push_back(kept_points[i]);
-    if (!kept_dt.empty()) out.dt_s.push_back(kept_dt[i]);
-  }
-  return out;
-}
-
-bool sweep_covered(const Sweep& s, const PoseStream& poses, double time_offset_s, double margin_s) {
-  if (s.size() == 0) return false;
-  double lo = 0.0, hi = 0.0;
-  if (s.has_time()) {
-    lo = *std::min_element(s.dt_s.begin(), s.dt_s.end());
-    hi = *std::max_element(s.dt_s.begin(), s.dt_s.end());
-  }
-  const double t = s.t_end_s + time_offset_s;
-  // The Jacobian's finite differences look a few milliseconds further.
-  return poses.covers(t + lo - margin_s - 0.006) && poses.covers(t + hi + margin_s + 0.006);
-}
-
-std::vector<Sweep> load_reduced(const Dataset& data, const std::vector<std::size_t>& indices,
-                                const FramePickConfig& config, double time_offset_s, double margin_s) {
-  std::vector<Sweep> frames(indices.size());
-  tbb::parallel_for(std::size_t{0}, indices.size(), [&](std::size_t i) {
-    Sweep s = reduce_sweep(data.frames.load(indices[i]), config);
-    if (sweep_covered(s, data.poses, time_offset_s, margin_s)) frames[i] = std::move(s);
-  });
-  frames.erase(std::remove_if(frames.begin(), frames.end(), [](const Sweep& s) { return s.size() == 0; }),
-               frames.end());
-  return frames;
-}
+// The Jacobian's finite differences look this much beyond a sweep's time span.
+constexpr double kJacobianLook_s = 0.006;
 
 // The reduced frames and everything every evaluation needs about them.
 struct Problem {
@@ -283,11 +221,7 @@ std::vector<int> active_dofs(const RefineConfig& c) {
   return dofs;
 }
 
-std::string fmt_m(double v) {
-  std::ostringstream os;
-  os << v;
-  return os.str();
-}
+std::string fmt_m(double v) { return fmt::format("{}", v); }
 
 // ---- The paper's search: coordinate-wise grid search with shrinking steps on occupancy. ----
 State grid_search(const Problem& p, const State& start, const RefineConfig& config, RefineResult& result,
@@ -382,7 +316,11 @@ State gauss_newton(const Problem& p, const State& start, const RefineConfig& con
     const double rms = ne.n > 0 ? std::sqrt(ne.sq / static_cast<double>(ne.n)) : 0.0;
     if (it == 0) result.crispness_before = rms;
     result.crispness_after = rms;
-    if (ne.n < 100) throw UnobservableError("stage 2: fewer than 100 points on local planes in the stitched map");
+    if (ne.n < 100) {
+      result.outcome.status = StageStatus::kUndetermined;
+      result.outcome.message = "stage 2: fewer than 100 points on local planes in the stitched map";
+      return start;
+    }
     H_active.resize(n_dof, n_dof);
     Eigen::VectorXd g_active(n_dof);
     for (int a = 0; a < n_dof; ++a) {
@@ -417,7 +355,8 @@ State gauss_newton(const Problem& p, const State& start, const RefineConfig& con
     if (dofs[a] == kTimeIndex) {
       result.time_offset_stddev_s = sd;
     } else {
-      result.stddev(dofs[a]) = dofs[a] < 3 ? sd : sd * kDegPerRad;
+      result.outcome.stddev(dofs[a]) = sd;
+      result.outcome.determined[static_cast<std::size_t>(dofs[a])] = true;
     }
   }
   result.measure = "plane thickness RMS (m, " + fmt_m(config.plane_voxel_m) + " m planes)";
@@ -435,62 +374,49 @@ PlaneThicknessConfig plane_thickness_config(const RefineConfig& c) {
   return pc;
 }
 
-std::vector<std::size_t> pick_refine_frames(const Dataset& data, const FramePickConfig& config,
-                                            double time_offset_s, double margin_s) {
-  const std::vector<FrameInfo>& frames = data.frames.frames;
-  std::vector<std::size_t> candidates;
-  if (data.poses.empty()) return candidates;
-  const double span = sweep_span_guess(frames);
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    const double t = frames[i].t_end_s + time_offset_s;
-    if (data.poses.covers(t - span - margin_s - 0.006) && data.poses.covers(t + margin_s + 0.006)) {
-      candidates.push_back(i);
-    }
-  }
-  if (candidates.empty()) return candidates;
-  // Cumulative motion: path length plus weighted turning; standstill adds nothing.
-  std::vector<double> motion(candidates.size(), 0.0);
-  Iso3 prev = data.poses.T_world_ins(frames[candidates[0]].t_end_s + time_offset_s);
-  for (std::size_t k = 1; k < candidates.size(); ++k) {
-    const Iso3 cur = data.poses.T_world_ins(frames[candidates[k]].t_end_s + time_offset_s);
-    const double dist = (cur.translation() - prev.translation()).norm();
-    const double turn_deg = Eigen::AngleAxisd(prev.linear().transpose() * cur.linear()).angle() * kDegPerRad;
-    motion[k] = motion[k - 1] + dist + config.turn_weight_m_per_deg * turn_deg;
-    prev = cur;
-  }
-  const double total = motion.back();
+std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,
+                                       double margin_s) {
+  const DriveFrames drive =
+      drive_frames(store.data(), store.frames_config(), time_offset_s, margin_s + kJacobianLook_s);
+  if (drive.size() == 0) return {};
+  const double total = drive.motion_m.back();
   const std::size_t by_motion = static_cast<std::size_t>(total / std::max(config.min_motion_m, 1e-6)) + 1;
-  const std::size_t n = std::max<std::size_t>(1, std::min(config.max_frames, by_motion));
   std::vector<std::size_t> picked;
-  std::size_t k = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double target = total * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
-    while (k + 1 < candidates.size() && motion[k] < target) ++k;
-    if (picked.empty() || picked.back() != candidates[k]) picked.push_back(candidates[k]);
-  }
+  for (std::size_t k : spread_over_motion(drive, std::max<std::size_t>(1, std::min(config.max_frames, by_motion))))
+    picked.push_back(drive.index[k]);
   return picked;
 }
 
-RefineResult refine_extrinsic(const Dataset& data, const Iso3& T_ins_lidar_start, double time_offset_start_s,
-                              const RefineConfig& config, const std::function<void(double)>& progress) {
+RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,
+                              const Iso3& T_ins_lidar_start, double time_offset_start_s, const RefineConfig& config,
+                              const std::function<void(double)>& progress) {
   const auto t0 = Clock::now();
   RefineResult result;
+  result.T_ins_lidar = T_ins_lidar_start;
+  result.time_offset_s = time_offset_start_s;
+  auto finish = [&] {
+    result.outcome.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    if (progress) progress(1.0);
+    return result;
+  };
   const double margin = config.estimate_time_offset ? config.time_offset_range_s : 0.0;
-  const std::vector<std::size_t> picked = pick_refine_frames(data, config.frames, time_offset_start_s, margin);
-  if (picked.size() < kMinFrames) {
-    throw UnobservableError("stage 2 (refinement): only " + std::to_string(picked.size()) +
-                            " frames with motion between them (need " + std::to_string(kMinFrames) +
-                            "); the vehicle barely moves, so no degree of freedom is determined");
+  std::vector<Sweep> sweeps = store.thinned(frames, config.filter);
+  std::erase_if(sweeps, [&](const Sweep& s) {
+    return !sweep_covered(store.poses(), s, time_offset_start_s, margin + kJacobianLook_s);
+  });
+  if (sweeps.size() < kMinFrames) {
+    result.outcome.status = StageStatus::kUndetermined;
+    result.outcome.message = "stage 2 (refinement): only " + std::to_string(sweeps.size()) +
+                             " usable frames with motion between them (need " + std::to_string(kMinFrames) +
+                             "); the vehicle barely moves, so no degree of freedom is determined";
+    return finish();
   }
-  Problem p = make_problem(data.poses, load_reduced(data, picked, config.frames, time_offset_start_s, margin));
-  if (p.frames.size() < kMinFrames) {
-    throw UnobservableError("stage 2 (refinement): only " + std::to_string(p.frames.size()) +
-                            " usable frames after range filtering and pose coverage");
-  }
+  Problem p = make_problem(store.poses(), std::move(sweeps));
   if (progress) progress(0.1);
   result.frames_used = p.frames.size();
   result.points_used = p.points();
   result.time_offset_estimated = config.estimate_time_offset;
+  result.outcome.status = StageStatus::kOk;
 
   const State start{T_ins_lidar_start, time_offset_start_s};
   const State final_state = config.method == RefineMethod::kOccupancyGrid
@@ -503,18 +429,39 @@ RefineResult refine_extrinsic(const Dataset& data, const Iso3& T_ins_lidar_start
   result.occupied_voxels_after = count_occupied_voxels(scratch, config.occupancy_voxel_m);
   result.T_ins_lidar = final_state.T_ins_lidar;
   result.time_offset_s = final_state.time_offset_s;
-  result.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  if (progress) progress(1.0);
-  return result;
+  return finish();
 }
 
-std::vector<Vec3f> stitch_map(const Dataset& data, const Iso3& T_ins_lidar, double time_offset_s,
-                              const StitchConfig& config) {
-  const std::vector<std::size_t> picked = pick_refine_frames(data, config.frames, time_offset_s, 0.0);
-  const Problem p = make_problem(data.poses, load_reduced(data, picked, config.frames, time_offset_s, 0.0));
-  std::vector<Vec3f> p_world;
-  place_all(p, State{T_ins_lidar, time_offset_s}, p_world);
-  return voxel_downsample(p_world, config.voxel_m);
+std::vector<RefineSystem> refine_systems(const FrameStore& store, const std::vector<std::size_t>& frames,
+                                         const std::vector<std::pair<Iso3, double>>& states, const RefineConfig& config) {
+  const Problem p = make_problem(store.poses(), store.thinned(frames, config.filter));
+  std::vector<RefineSystem> out;
+  std::vector<Vec3f> scratch;
+  LocalPlanes planes;
+  for (const auto& [T_ins_lidar, time_offset_s] : states) {
+    const NormalEquations ne = build_normal_equations(p, State{T_ins_lidar, time_offset_s}, config, scratch, planes);
+    out.push_back({ne.cost, ne.g, ne.H, ne.n});
+  }
+  return out;
+}
+
+RefineResult refine_checked(const FrameStore& store, const std::vector<std::size_t>& frames,
+                            const Iso3& T_ins_lidar_start, double time_offset_start_s, double max_speed_mps,
+                            const RefineConfig& config, const std::function<void(double)>& progress,
+                            std::string& warning) {
+  RefineResult refine = refine_extrinsic(store, frames, T_ins_lidar_start, time_offset_start_s, config, progress);
+  const double shift_m = (refine.T_ins_lidar.translation() - T_ins_lidar_start.translation()).head<2>().norm();
+  const double explained_m =
+      max_speed_mps * std::abs(refine.time_offset_s - time_offset_start_s) + config.max_unexplained_shift_m;
+  if (!refine.outcome.ok() || !refine.time_offset_estimated || shift_m <= explained_m) return refine;
+  warning = fmt::format(
+      "stage 2 moved the lever arm by {:.1f} cm with a time offset of {:+.1f} ms, more than the offset explains "
+      "({:.1f} cm): this drive cannot separate the time offset from the lever arm (too few vertical structures?); "
+      "stage 2 repeated with the offset fixed at {:+.1f} ms",
+      100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * time_offset_start_s);
+  RefineConfig fixed_offset = config;
+  fixed_offset.estimate_time_offset = false;
+  return refine_extrinsic(store, frames, T_ins_lidar_start, time_offset_start_s, fixed_offset, progress);
 }
 
 }  // namespace insalign

@@ -4,13 +4,17 @@
 #pragma once
 
 #include <cstddef>
+#include <array>
 #include <functional>
+#include <limits>
+#include <span>
 #include <string>
 #include <vector>
 
-#include "core/dataset.hpp"
+#include "core/frame_store.hpp"
 #include "core/geometry.hpp"
 #include "core/occupancy.hpp"
+#include "core/stage.hpp"
 
 namespace insalign {
 
@@ -25,28 +29,28 @@ enum class RefineMethod {
   kContinuous,
 };
 
-/// Which frames of the drive a map is built from, and how each is reduced.
-struct FramePickConfig {
-  std::size_t max_frames = 120;     ///< frames spread evenly over the drive's motion (path + turning)
-  double min_motion_m = 0.3;        ///< frames closer than this in path length (plus turning, see below)
-                                    ///< to the previous pick are skipped: standstill adds nothing
-  double turn_weight_m_per_deg = 0.1; ///< 1 deg of heading change counts as this much path length
-  double min_range_m = 2.5;         ///< points nearer than this are dropped (the car body)
-  double max_range_m = 80.0;        ///< points farther than this are dropped (sparse, noisy)
-  double frame_voxel_m = 0.15;      ///< per-frame downsampling in the LiDAR frame (one raw point,
-                                    ///< with its own time, kept per voxel)
-  std::size_t max_points_per_frame = 10000;  ///< then thinned evenly to at most this many (0: no cap)
-};
+inline constexpr std::array<std::pair<RefineMethod, std::string_view>, 2> kRefineMethodNames{
+    {{RefineMethod::kContinuous, "continuous"}, {RefineMethod::kOccupancyGrid, "occupancy-grid"}}};
+constexpr auto enum_names(RefineMethod) { return std::span(kRefineMethodNames); }
 
 struct RefineConfig {
   RefineMethod method = RefineMethod::kContinuous;
-  FramePickConfig frames;           ///< frames used and their reduction
+  /// Frames spread evenly over the drive's motion measure (frames.hpp), at most one per
+  /// min_motion_m of it: standstill adds nothing.
+  std::size_t max_frames = 120;
+  double min_motion_m = 0.3;
+  /// Per-frame thinning: one raw point (with its own time) per voxel in the LiDAR frame, then at
+  /// most max_points (min_range_m 0: the vehicle's body radius).
+  SweepFilter filter{.min_range_m = 0.0, .max_range_m = 80.0, .voxel_m = 0.15, .max_points = 10000};
 
   // Degrees of freedom.
   bool estimate_time_offset = true; ///< also estimate the LiDAR-to-INS time offset
   double time_offset_range_s = 0.05;  ///< offset searched within start +- this, seconds
   bool estimate_tz = false;         ///< INS-vertical translation: unobservable from planar driving,
                                     ///< stage 3 fixes it from fiducials; kept at its start value
+  /// Stage 2 may move the horizontal lever arm by max speed x its time-offset change plus this
+  /// (stage 1's accuracy bound); beyond, refine_checked runs it again with the offset fixed.
+  double max_unexplained_shift_m = 0.03;
 
   // kOccupancyGrid: the paper's search.
   double occupancy_voxel_m = 0.1;   ///< voxel edge of the occupancy count, metres (with downsampled
@@ -76,6 +80,37 @@ struct RefineConfig {
   double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
 };
 
+template <class V>
+void visit_config(V& v, RefineConfig& c) {
+  v("method", c.method, "crispness measure: continuous (plane thickness, Gauss-Newton) or occupancy-grid (the paper)");
+  v("max_frames", c.max_frames, "frames spread over the drive's motion");
+  v("min_motion_m", c.min_motion_m, "at most one frame per this much motion measure, m");
+  v.section("filter", c.filter);
+  v("estimate_time_offset", c.estimate_time_offset, "also estimate the LiDAR-to-INS time offset");
+  v("time_offset_range_s", c.time_offset_range_s, "time offset searched within start +- this, s");
+  v("estimate_tz", c.estimate_tz, "also move tz (unobservable from planar driving)");
+  v("max_unexplained_shift_m", c.max_unexplained_shift_m,
+    "x, y may move by max speed x the time-offset change plus this, else stage 2 reruns with the offset fixed, m");
+  v("occupancy_voxel_m", c.occupancy_voxel_m, "occupancy_grid: voxel of the occupancy count, m");
+  v("grid_rot_range_deg", c.grid_rot_range_deg, "occupancy_grid: first-round half range per rotation axis, deg");
+  v("grid_trans_range_m", c.grid_trans_range_m, "occupancy_grid: first-round half range per translation axis, m");
+  v("grid_steps", c.grid_steps, "occupancy_grid: samples per side in a round");
+  v("grid_rounds", c.grid_rounds, "occupancy_grid: rounds, the range shrinking after each");
+  v("grid_shrink", c.grid_shrink, "occupancy_grid: range factor between rounds");
+  v("grid_sweeps_per_round", c.grid_sweeps_per_round, "occupancy_grid: coordinate passes over all DOF per round");
+  v("plane_voxel_m", c.plane_voxel_m, "continuous: voxel fitted with a local plane, m");
+  v("plane_voxel_min_m", c.plane_voxel_min_m, "continuous: non-planar voxels split once down to this, m");
+  v("plane_min_points", c.plane_min_points, "continuous: a local plane needs at least this many points");
+  v("plane_max_planarity", c.plane_max_planarity, "continuous: lambda_min / lambda_mid above this is not a plane");
+  v("huber_m", c.huber_m, "continuous: robust loss scale on point-to-plane distances, m");
+  v("max_iterations", c.max_iterations, "continuous: Gauss-Newton iterations");
+  v("refit_iterations", c.refit_iterations, "continuous: iterations that re-find the planes before freezing them");
+  v("converged_rot_deg", c.converged_rot_deg, "continuous: stop when the rotation update is below this, deg");
+  v("converged_trans_m", c.converged_trans_m, "continuous: ...and the translation update below this, m");
+  v("time_offset_scan_step_s", c.time_offset_scan_step_s, "coarse time-offset scan step before Gauss-Newton (0: none), s");
+  v("time_offset_scan_voxel_m", c.time_offset_scan_voxel_m, "voxel of that scan's occupancy count, m");
+}
+
 /// One step of the search: after each grid round, or each Gauss-Newton iteration.
 struct RefineRound {
   int round = 0;
@@ -85,6 +120,10 @@ struct RefineRound {
 };
 
 struct RefineResult {
+  /// kUndetermined when too few frames move (message says how many); the estimate is the start.
+  /// stddev: from the Gauss-Newton information (kContinuous; tz +inf), points treated as
+  /// independent, so optimistic: the pipeline widens it with the repeatability spread.
+  StageOutcome outcome;
   Iso3 T_ins_lidar = Iso3::Identity();
   double time_offset_s = 0.0;       ///< t_ins = t_lidar + time_offset_s
   std::string measure;              ///< name and unit of crispness_*, e.g. "occupied voxels (0.05 m)"
@@ -98,35 +137,48 @@ struct RefineResult {
   int evaluations = 0;              ///< cost evaluations (map rebuilds)
   bool time_offset_estimated = false;
   bool converged = false;
-  /// Approximate 1-sigma per DOF [x, y, z, roll, pitch, yaw] (m, deg) and time offset (s) from
-  /// the Gauss-Newton information, kContinuous only (zero otherwise).
-  Vec6 stddev = Vec6::Zero();
-  double time_offset_stddev_s = 0.0;
+  double time_offset_stddev_s = std::numeric_limits<double>::infinity();
   std::vector<RefineRound> rounds;
-  double wall_time_s = 0.0;
 };
 
 /// The local-plane parameters of kContinuous as the crispness measure's config.
 PlaneThicknessConfig plane_thickness_config(const RefineConfig& config);
 
+/// Frames spread over the drive's motion whose sweeps, shifted by up to +-margin_s, the poses
+/// cover (no sweep is loaded).
+std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,
+                                       double margin_s);
+
 /// Refines T_ins_lidar (and the time offset) from a start close to the truth (stage 1 output,
-/// within about 0.5 deg and 5 cm). Throws UnobservableError if too few frames move.
+/// within about 0.5 deg and 5 cm), on the given frames (refine_frames, or a time slice of them).
 /// progress, if set, is called with the fraction done in [0, 1].
-RefineResult refine_extrinsic(const Dataset& data, const Iso3& T_ins_lidar_start, double time_offset_start_s,
-                              const RefineConfig& config = {},
-                              const std::function<void(double)>& progress = {});
+RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,
+                              const Iso3& T_ins_lidar_start, double time_offset_start_s,
+                              const RefineConfig& config = {}, const std::function<void(double)>& progress = {});
 
-/// A stitched, deskewed, downsampled map for a given extrinsic (report, stage 3, `insalign stitch`).
-struct StitchConfig {
-  FramePickConfig frames;           ///< which frames, and their per-frame reduction
-  double voxel_m = 0.1;             ///< the stitched map is downsampled to this, metres
+/// Stage 2's least-squares system (the continuous method's point-to-plane residuals on the
+/// stitched map's local planes, Huber-weighted) at each of `states` (extrinsic, time offset): the
+/// planes are found at the first state and only refitted (centroid, normal) at the others, as the
+/// Gauss-Newton iterations see them once the grouping is frozen. Parameters [tx ty tz, w_x w_y w_z
+/// (R' = exp(w) R), time offset]. Exposed so a test can check the hand-written Jacobian (its
+/// time-offset column included) against numerical differentiation.
+struct RefineSystem {
+  double cost = 0.0;                          ///< sum of w r^2, m^2
+  Eigen::Matrix<double, 7, 1> gradient;       ///< sum of w r J (half the cost's gradient at w = 1)
+  Eigen::Matrix<double, 7, 7> hessian;        ///< Gauss-Newton, plane offsets eliminated
+  std::size_t points = 0;
 };
-std::vector<Vec3f> stitch_map(const Dataset& data, const Iso3& T_ins_lidar, double time_offset_s,
-                              const StitchConfig& config = {});
+std::vector<RefineSystem> refine_systems(const FrameStore& store, const std::vector<std::size_t>& frames,
+                                         const std::vector<std::pair<Iso3, double>>& states, const RefineConfig& config);
 
-/// Indices of frames spread over the drive's motion, skipping standstill, whose sweeps (shifted by
-/// up to +-margin_s) the poses cover. Exposed for tests and for other stages.
-std::vector<std::size_t> pick_refine_frames(const Dataset& data, const FramePickConfig& config,
-                                            double time_offset_s, double margin_s);
+/// Stage 2, checked: it may move the horizontal lever arm only as far as its change of the time
+/// offset explains (the map shifts by speed x offset along the travel) plus
+/// config.max_unexplained_shift_m. Further means the drive cannot separate the offset from the
+/// lever arm (a feature-poor drive traded 10 ms for 18 cm): stage 2 runs again with the offset
+/// fixed, and `warning` says so (else it is left empty).
+RefineResult refine_checked(const FrameStore& store, const std::vector<std::size_t>& frames,
+                            const Iso3& T_ins_lidar_start, double time_offset_start_s, double max_speed_mps,
+                            const RefineConfig& config, const std::function<void(double)>& progress,
+                            std::string& warning);
 
 }  // namespace insalign

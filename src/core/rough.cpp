@@ -178,34 +178,6 @@ Accum evaluate(const Problem& problem, const Iso3& T_ins_lidar, double robust_sc
 }
 
 
-Sweep reduce_sweep(Sweep sweep, const RoughConfig& config) {
-  const float rmin2 = static_cast<float>(config.min_range_m * config.min_range_m);
-  const float rmax2 = static_cast<float>(config.max_range_m * config.max_range_m);
-  std::vector<Vec3f> kept_points;
-  std::vector<float> kept_dt;
-  kept_points.reserve(sweep.size() / 4);
-  const bool has_time = sweep.has_time();
-  for (std::size_t i = 0; i < sweep.size(); ++i) {
-    const Vec3f& p = sweep.p_lidar[i];
-    if (!p.allFinite()) continue;
-    const float r2 = p.squaredNorm();
-    if (r2 < rmin2 || r2 > rmax2) continue;
-    kept_points.push_back(p);
-    if (has_time) kept_dt.push_back(sweep.dt_s[i]);
-  }
-  const std::vector<std::uint32_t> idx = voxel_downsample_indices(kept_points, config.downsample_voxel_m);
-  Sweep out;
-  out.name = std::move(sweep.name);
-  out.t_end_s = sweep.t_end_s;
-  out.p_lidar.reserve(idx.size());
-  for (std::uint32_t i : idx) out.p_lidar.push_back(kept_points[i]);
-  if (has_time) {
-    out.dt_s.reserve(idx.size());
-    for (std::uint32_t i : idx) out.dt_s.push_back(kept_dt[i]);
-  }
-  return out;
-}
-
 /// Builds the plane clusters of one window of frames at the current extrinsic.
 void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std::vector<Vec3f>>& p_lidar,
                 const Problem& placed, const Iso3& T_ins_lidar, const PlaneFeatureConfig& plane_config,
@@ -245,12 +217,6 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
 
 }  // namespace
 
-Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta) {
-  Iso3 out = T_ins_lidar;
-  out.linear() = nearest_rotation(so3_exp(delta.tail<3>()) * T_ins_lidar.linear());
-  out.translation() = T_ins_lidar.translation() + delta.head<3>();
-  return out;
-}
 
 PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
                                     double robust_scale_m) {
@@ -278,181 +244,207 @@ PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observa
   return system;
 }
 
-RoughResult calibrate_rough(const Dataset& data, const Iso3& T_ins_lidar_init, const RoughConfig& config,
-                            const std::function<void(double fraction)>& progress) {
+FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config) {
+  const DriveFrames drive = drive_frames(store.data(), store.frames_config());
+  return spread_groups(drive, store.frames_config(), config.groups, config.frames_per_group);
+}
+
+namespace {
+
+// The stage's frames, thinned, and its groups as local indices into them.
+struct RoughFrames {
+  std::vector<Sweep> sweeps;
+  std::vector<std::vector<std::uint32_t>> groups;
+};
+
+RoughFrames load_rough_frames(const FrameStore& store, const FrameGroups& groups, const RoughConfig& config) {
+  RoughFrames out;
+  std::vector<std::size_t> indices;
+  for (const auto& g : groups) {
+    out.groups.emplace_back();
+    for (std::size_t i : g) {
+      out.groups.back().push_back(static_cast<std::uint32_t>(indices.size()));
+      indices.push_back(i);
+    }
+  }
+  out.sweeps = store.thinned(indices, config.filter);
+  return out;
+}
+
+// The plane clusters of every window of one round, at the current extrinsic.
+Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, const Iso3& T_ins_lidar,
+                            const RoughRound& round, const RoughConfig& config, int* windows) {
+  PlaceOptions place;
+  place.per_point_time = config.deskew;
+  std::vector<std::vector<Vec3f>> p_lidar(frames.sweeps.size());
+  Problem placed;
+  placed.T_world_ins.resize(frames.sweeps.size());
+  tbb::parallel_for(std::size_t{0}, frames.sweeps.size(), [&](std::size_t k) {
+    p_lidar[k] = deskew_sweep(frames.sweeps[k], poses, T_ins_lidar, place);
+    placed.T_world_ins[k] = frame_pose(frames.sweeps[k], poses, 0.0);
+  });
+  PlaneFeatureConfig plane_config;
+  plane_config.root_voxel_m = round.root_voxel_m;
+  plane_config.max_depth = config.max_depth;
+  plane_config.planarity_sigma_m = round.planarity_sigma_m;
+  plane_config.max_eigen_ratio = config.max_eigen_ratio;
+  plane_config.min_points = config.min_points_per_plane;
+
+  Problem problem;
+  problem.T_world_ins = placed.T_world_ins;
+  const auto& groups = frames.groups;
+  const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
+  const std::size_t stride = static_cast<std::size_t>(std::max(1, round.frame_stride));
+  *windows = 0;
+  for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
+    std::vector<std::uint32_t> window;
+    for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
+      for (std::size_t n = 0; n < groups[g].size(); n += (per_window == 1 ? 1 : stride)) window.push_back(groups[g][n]);
+    add_window(window, p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, problem);
+    ++*windows;
+  }
+  return problem;
+}
+
+// Levenberg-Marquardt on the fixed association, moving only the DOFs in `free`.
+Accum solve_round(const Problem& problem, const RoughRound& round, const std::vector<int>& free, Accum acc,
+                  Iso3& T_ins_lidar) {
+  double lambda = 1e-3;
+  for (int it = 0; it < round.iterations && !free.empty(); ++it) {
+    const int n = static_cast<int>(free.size());
+    Eigen::MatrixXd H(n, n);
+    Eigen::VectorXd g(n);
+    for (int a = 0; a < n; ++a) {
+      g(a) = acc.g(free[a]);
+      for (int b = 0; b < n; ++b) H(a, b) = acc.H(free[a], free[b]);
+    }
+    bool accepted = false;
+    for (int attempt = 0; attempt < 6 && !accepted; ++attempt) {
+      Eigen::MatrixXd Hd = H;
+      for (int a = 0; a < n; ++a) Hd(a, a) += lambda * H(a, a) + 1e-12;
+      const Eigen::VectorXd step = Hd.ldlt().solve(-g);
+      Vec6 delta = Vec6::Zero();
+      for (int a = 0; a < n; ++a) delta(free[a]) = step(a);
+      const Iso3 candidate = apply_update(T_ins_lidar, delta);
+      const Accum trial = evaluate(problem, candidate, round.robust_scale_m, true);
+      if (trial.cost > acc.cost) {
+        lambda *= 5.0;
+        continue;
+      }
+      // Stop once a step gains almost nothing (the association, not the solver, limits now).
+      const bool negligible = acc.cost - trial.cost < 1e-5 * acc.cost ||
+                              (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-6);
+      T_ins_lidar = candidate;
+      acc = trial;
+      lambda = std::max(lambda / 3.0, 1e-7);
+      accepted = true;
+      if (negligible) it = round.iterations;
+    }
+    if (!accepted) break;
+  }
+  return acc;
+}
+
+// Only along directions this round's frames determine (looser than the final verdict: early
+// rounds just must not wander along directions their short windows cannot see). Noise test only:
+// the leverage test guards the final result against INS errors, while a round must be free to
+// move every DOF its frames see, however slightly.
+std::vector<int> round_free_dofs(const Accum& acc, const ObservabilityConfig& config, bool tz_free) {
+  ObservabilityConfig loose = config;
+  loose.max_stddev_trans_m *= 5.0;
+  loose.max_stddev_rot_deg *= 5.0;
+  const double sigma0 = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
+  const DofVerdict verdict = assess_observability(acc.H, sigma0, loose);
+  std::vector<int> free;
+  for (int i = 0; i < 6; ++i)
+    if (verdict.determined[i] && (i != 2 || tz_free)) free.push_back(i);
+  return free;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, const Iso3& T_ins_lidar_init,
+                            const RoughConfig& config, const std::function<void(double fraction)>& progress) {
   const auto start = std::chrono::steady_clock::now();
   auto report = [&](double f) {
     if (progress) progress(f);
   };
   RoughResult result;
   result.T_ins_lidar = T_ins_lidar_init;
-  result.observability = assess_observability(Mat6::Zero(), 1.0, config.observability);
-
-  FrameSelectionConfig selection_config = config.frames;
-  selection_config.time_offset_s = 0.0;
-  const FrameSelection selection = select_frames(data, selection_config);
-  const std::vector<std::size_t> selected = selection.all();
-  auto finish = [&](std::string message) {
-    result.message = std::move(message);
-    result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  auto finish = [&](StageStatus status, std::string message) {
+    result.outcome.status = status;
+    result.outcome.message = std::move(message);
+    result.outcome.determined = result.observability.determined;
+    result.outcome.stddev = result.observability.stddev;
+    result.outcome.wall_time_s = seconds_since(start);
     report(1.0);
     return result;
   };
-  if (selected.size() < 2) {
+  std::size_t n_frames = 0;
+  for (const auto& g : groups) n_frames += g.size();
+  if (n_frames < 2) {
+    result.observability = assess_observability(Mat6::Zero(), 1.0, config.observability);
     result.observability.explanation =
         "undetermined: tx ty tz roll pitch yaw. The vehicle does not move during the frames the poses "
         "cover (standing still): every extrinsic lines the sweeps up equally well.";
-    return finish("fewer than two moving frames");
+    return finish(StageStatus::kUndetermined, result.observability.explanation);
   }
 
-  // Load and reduce in parallel; only reduced frames are kept.
-  std::vector<Sweep> frames(selected.size());
-  tbb::parallel_for(std::size_t{0}, selected.size(), [&](std::size_t k) {
-    frames[k] = reduce_sweep(data.frames.load(selected[k]), config);
-  });
-  result.frames_used = frames.size();
-  result.load_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const RoughFrames frames = load_rough_frames(store, groups, config);
+  result.frames_used = frames.sweeps.size();
+  result.load_time_s = seconds_since(start);
   report(0.3);
 
-  // Local frame index per group, for windows.
-  std::vector<std::vector<std::uint32_t>> groups;
-  {
-    std::uint32_t k = 0;
-    for (const auto& g : selection.groups) {
-      groups.emplace_back();
-      for (std::size_t n = 0; n < g.size(); ++n) groups.back().push_back(k++);
-    }
-  }
-
-  PlaceOptions place;
-  place.time_offset_s = 0.0;
-  place.per_point_time = config.deskew;
-
   Iso3 T_ins_lidar = T_ins_lidar_init;
-  std::vector<std::vector<Vec3f>> p_lidar(frames.size());
+  Accum last;
   Problem problem;
-  double sigma_m = 0.0;
-  double residual_count = 0.0;  // weighted
-  Mat6 information = Mat6::Zero();
-
-  // One round; tz_free allows tz to move (only when the information determines it).
-  auto run_round = [&](int round_index, const RoughRound& round, bool tz_free) {
+  auto run_round = [&](int index, const RoughRound& round, bool tz_free) {
     const auto round_start = std::chrono::steady_clock::now();
-    const auto seconds_since = [](auto t0) {
-      return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    };
-    Problem placed;
-    placed.T_world_ins.resize(frames.size());
-    tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t k) {
-      p_lidar[k] = deskew_sweep(frames[k], data.poses, T_ins_lidar, place);
-      placed.T_world_ins[k] = frame_pose(frames[k], data.poses, 0.0);
-    });
-    PlaneFeatureConfig plane_config;
-    plane_config.root_voxel_m = round.root_voxel_m;
-    plane_config.max_depth = config.max_depth;
-    plane_config.planarity_sigma_m = round.planarity_sigma_m;
-    plane_config.max_eigen_ratio = config.max_eigen_ratio;
-    plane_config.min_points = config.min_points_per_plane;
-
-    problem = Problem{};
-    problem.T_world_ins = placed.T_world_ins;
-    const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
-    const std::size_t stride = static_cast<std::size_t>(std::max(1, round.frame_stride));
-    int windows = 0;
-    for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
-      std::vector<std::uint32_t> window;
-      for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
-        for (std::size_t n = 0; n < groups[g].size(); n += (per_window == 1 ? 1 : stride)) window.push_back(groups[g][n]);
-      add_window(window, p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, problem);
-      ++windows;
-    }
     RoundLog log;
-    log.round = round_index;
+    log.round = index;
+    problem = build_round_problem(frames, store.poses(), T_ins_lidar, round, config, &log.windows);
     log.planes = problem.planes();
     log.residuals = problem.residuals;
-    log.windows = windows;
     log.build_s = seconds_since(round_start);
-    const auto solve_start = std::chrono::steady_clock::now();
-    if (problem.planes() == 0) {
-      log.T_ins_lidar = T_ins_lidar;
-      result.convergence.push_back(log);
-      return;
-    }
-
-    Accum acc = evaluate(problem, T_ins_lidar, round.robust_scale_m, true);
-    if (result.convergence.empty()) result.cost_before = acc.cost;
-    // Move only along directions this round's frames determine (looser than the final verdict:
-    // early rounds just must not wander along directions their short windows cannot see).
-    ObservabilityConfig loose = config.observability;
-    loose.max_stddev_trans_m *= 5.0;
-    loose.max_stddev_rot_deg *= 5.0;
-    // Noise test only: the leverage test guards the final result against INS errors, while a
-    // round must be free to move every DOF its frames see, however slightly.
-    const double sigma0 = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
-    const DofVerdict round_verdict = assess_observability(acc.H, sigma0, loose);
-    std::vector<int> free;
-    for (int i = 0; i < 6; ++i)
-      if (round_verdict.determined[i] && (i != 2 || tz_free)) free.push_back(i);
-    double lambda = 1e-3;
-    for (int it = 0; it < round.iterations && !free.empty(); ++it) {
-      const int n = static_cast<int>(free.size());
-      Eigen::MatrixXd H(n, n);
-      Eigen::VectorXd g(n);
-      for (int a = 0; a < n; ++a) {
-        g(a) = acc.g(free[a]);
-        for (int b = 0; b < n; ++b) H(a, b) = acc.H(free[a], free[b]);
-      }
-      bool accepted = false;
-      for (int attempt = 0; attempt < 6 && !accepted; ++attempt) {
-        Eigen::MatrixXd Hd = H;
-        for (int a = 0; a < n; ++a) Hd(a, a) += lambda * H(a, a) + 1e-12;
-        const Eigen::VectorXd step = Hd.ldlt().solve(-g);
-        Vec6 delta = Vec6::Zero();
-        for (int a = 0; a < n; ++a) delta(free[a]) = step(a);
-        const Iso3 candidate = apply_update(T_ins_lidar, delta);
-        const Accum trial = evaluate(problem, candidate, round.robust_scale_m, true);
-        if (trial.cost <= acc.cost) {
-          // Stop once a step gains almost nothing (the association, not the solver, limits now).
-          if (acc.cost - trial.cost < 1e-5 * acc.cost) it = round.iterations;
-          T_ins_lidar = candidate;
-          acc = trial;
-          lambda = std::max(lambda / 3.0, 1e-7);
-          accepted = true;
-          if (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-6) it = round.iterations;  // converged
-        } else {
-          lambda *= 5.0;
-        }
-      }
-      if (!accepted) break;
-    }
-    sigma_m = std::sqrt(acc.weighted_sq / std::max(acc.weighted_n, 1.0));
-    information = acc.H;
-    residual_count = acc.weighted_n;
     log.T_ins_lidar = T_ins_lidar;
-    log.cost = acc.cost;
-    log.solve_s = seconds_since(solve_start);
-    result.cost_after = acc.cost;
+    if (problem.planes() > 0) {
+      const auto solve_start = std::chrono::steady_clock::now();
+      const Accum acc = evaluate(problem, T_ins_lidar, round.robust_scale_m, true);
+      if (result.convergence.empty()) result.cost_before = acc.cost;
+      last = solve_round(problem, round, round_free_dofs(acc, config.observability, tz_free), acc, T_ins_lidar);
+      log.T_ins_lidar = T_ins_lidar;
+      log.cost = result.cost_after = last.cost;
+      log.solve_s = seconds_since(solve_start);
+    }
     result.convergence.push_back(log);
   };
-
   const int n_rounds = static_cast<int>(config.rounds.size());
   for (int r = 0; r < n_rounds; ++r) {
     run_round(r, config.rounds[r], false);
     report(0.3 + 0.65 * (r + 1) / std::max(1, n_rounds));
   }
-  result.observability = assess_observability(information, sigma_m, residual_count, config.observability);
+  auto verdict = [&] {
+    const double sigma = std::sqrt(last.weighted_sq / std::max(last.weighted_n, 1.0));
+    return assess_observability(last.H, sigma, last.weighted_n, config.observability);
+  };
+  result.observability = verdict();
   if (!config.always_fix_tz && result.observability.determined[2] && n_rounds > 0) {
     run_round(n_rounds, config.rounds.back(), true);
     result.tz_estimated = true;
-    result.observability = assess_observability(information, sigma_m, residual_count, config.observability);
+    result.observability = verdict();
   }
   result.T_ins_lidar = T_ins_lidar;
-  result.information = information;
-  result.residual_sigma_m = sigma_m;
+  result.information = last.H;
+  result.residual_sigma_m = std::sqrt(last.weighted_sq / std::max(last.weighted_n, 1.0));
   result.planes = problem.planes();
   result.residuals = problem.residuals;
   result.rounds = static_cast<int>(result.convergence.size());
-  return finish("");
+  const auto reason = unobservable_reason(result.observability);
+  return finish(reason ? StageStatus::kUndetermined : StageStatus::kOk, reason.value_or(""));
 }
 
 }  // namespace insalign

@@ -8,10 +8,11 @@
 #include <string>
 #include <vector>
 
-#include "core/dataset.hpp"
-#include "core/frame_selection.hpp"
+#include "core/frame_store.hpp"
+#include "core/frames.hpp"
 #include "core/geometry.hpp"
 #include "core/observability.hpp"
+#include "core/stage.hpp"
 
 namespace insalign {
 
@@ -31,10 +32,10 @@ struct RoughRound {
 std::vector<RoughRound> default_rough_schedule();
 
 struct RoughConfig {
-  FrameSelectionConfig frames{};     ///< which frames: 24 groups of 6 consecutive moving frames
-  double min_range_m = 2.5;          ///< points nearer than this are the car body, dropped
-  double max_range_m = 80.0;         ///< points farther than this are dropped (sparse, noisy)
-  double downsample_voxel_m = 0.4;   ///< per-frame voxel downsampling in the LiDAR frame, metres
+  std::size_t groups = 24;           ///< groups of consecutive moving frames spread over the drive
+  std::size_t frames_per_group = 6;  ///< consecutive moving frames per group
+  /// Per-frame thinning in the LiDAR frame (min_range_m 0: the vehicle's body radius).
+  SweepFilter filter{.min_range_m = 0.0, .max_range_m = 80.0, .voxel_m = 0.4, .max_points = 0};
   int max_depth = 3;                 ///< octree depth below the root voxel (min voxel = root / 8)
   double max_eigen_ratio = 0.1;      ///< plane test: smallest / middle eigenvalue below this
   std::size_t min_points_per_plane = 8;  ///< fewer points in a voxel: dropped
@@ -48,6 +49,31 @@ struct RoughConfig {
   ObservabilityConfig observability{};
 };
 
+template <class V>
+void visit_config(V& v, RoughRound& c) {
+  v("window_groups", c.window_groups, "consecutive frame groups registered together (0: all)");
+  v("frame_stride", c.frame_stride, "every n-th frame of each group (1: all)");
+  v("root_voxel_m", c.root_voxel_m, "adaptive voxelization root edge, m");
+  v("planarity_sigma_m", c.planarity_sigma_m, "plane thickness accepted, m");
+  v("robust_scale_m", c.robust_scale_m, "Cauchy loss scale on a cluster's RMS distance, m");
+  v("iterations", c.iterations, "Levenberg-Marquardt steps on fixed associations");
+}
+
+template <class V>
+void visit_config(V& v, RoughConfig& c) {
+  v("groups", c.groups, "groups of consecutive moving frames spread over the drive");
+  v("frames_per_group", c.frames_per_group, "consecutive moving frames per group");
+  v.section("filter", c.filter);
+  v("max_depth", c.max_depth, "adaptive-voxel octree depth below the root voxel");
+  v("max_eigen_ratio", c.max_eigen_ratio, "plane test: smallest / middle eigenvalue below this");
+  v("min_points_per_plane", c.min_points_per_plane, "voxels with fewer points are dropped");
+  v("min_frames_per_plane", c.min_frames_per_plane, "planes seen by fewer frames are dropped");
+  v.list("rounds", c.rounds, "the coarse-to-fine schedule, one entry per round");
+  v("always_fix_tz", c.always_fix_tz, "true: keep tz at its initial value even when the drive determines it");
+  v("deskew", c.deskew, "use per-point times when the sweeps have them");
+  v.section("observability", c.observability);
+}
+
 struct RoundLog {
   int round = 0;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< estimate after the round
@@ -59,6 +85,8 @@ struct RoundLog {
 };
 
 struct RoughResult {
+  /// kUndetermined when a DOF other than tz is not determined (message: which and why).
+  StageOutcome outcome;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< estimate
   bool tz_estimated = false;         ///< false: tz kept at the initial value (planar driving)
   DofVerdict observability;          ///< from the final round's information over all frames used
@@ -69,15 +97,18 @@ struct RoughResult {
   std::size_t frames_used = 0, planes = 0, residuals = 0;
   int rounds = 0;
   std::vector<RoundLog> convergence;
-  double wall_time_s = 0.0;
   double load_time_s = 0.0;          ///< of which loading and reducing the frames
-  std::string message;               ///< why the stage stopped early (nothing moves, no planes), else empty
 };
 
-/// Runs stage 1. Loads only the frames it uses (in parallel, reducing each right away). Does not
-/// throw for degenerate data: the verdict says which DOFs are undetermined and why
-/// (unobservable_reason() decides whether that is fatal). Throws what the frame loader throws.
-RoughResult calibrate_rough(const Dataset& data, const Iso3& T_ins_lidar_init, const RoughConfig& config = {},
+/// Groups of consecutive moving frames spread over the drive (no sweep is loaded).
+using FrameGroups = std::vector<std::vector<std::size_t>>;
+FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config = {});
+
+/// Runs stage 1 on the given groups (rough_frame_groups, or a time slice of them). Reads the
+/// frames from the store (thinned by config.filter). Does not throw for degenerate data: the
+/// outcome says which DOFs are undetermined and why. Throws what the frame loader throws.
+RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, const Iso3& T_ins_lidar_init,
+                            const RoughConfig& config = {},
                             const std::function<void(double fraction)>& progress = {});
 
 /// The points one frame saw of one plane (the association is fixed; the plane itself is refitted
@@ -102,7 +133,5 @@ struct PointPlaneSystem {
 PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observations, const Iso3& T_ins_lidar,
                                     double robust_scale_m);
 
-/// The perturbation the stage uses: R' = exp(w) R, t' = t + rho, delta = [rho; w].
-Iso3 perturb_in_ins_frame(const Iso3& T_ins_lidar, const Vec6& delta);
 
 }  // namespace insalign

@@ -53,24 +53,24 @@ std::vector<Vec3> target_normals(const std::vector<Vec3>& target, const KdTree& 
 
 }  // namespace
 
-std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m) {
-  const double inv = 1.0 / voxel_m;
-  std::unordered_map<std::uint64_t, std::uint32_t> slot;
-  slot.reserve(points.size());
-  std::vector<Vec3> sum;
-  std::vector<int> count;
-  for (const Vec3& p : points) {
-    auto [it, inserted] = slot.try_emplace(voxel_key(p, inv), static_cast<std::uint32_t>(sum.size()));
-    if (inserted) {
-      sum.push_back(p);
-      count.push_back(1);
-    } else {
-      sum[it->second] += p;
-      ++count[it->second];
-    }
+PointToPlaneSystem point_to_plane_system(const std::vector<Vec3>& p_source, const std::vector<Vec3>& q_target,
+                                         const std::vector<Vec3>& n_target, const Iso3& T_target_source,
+                                         double huber_delta_m) {
+  PointToPlaneSystem sys;
+  for (std::size_t i = 0; i < p_source.size(); ++i) {
+    const Vec3 p = T_target_source * p_source[i];
+    const Vec3& n = n_target[i];
+    const double r = n.dot(p - q_target[i]);
+    // Left perturbation T <- exp([rho, omega]) T: dp = rho + omega x p.
+    Vec6 J;
+    J << n, p.cross(n);
+    const double w = std::abs(r) <= huber_delta_m ? 1.0 : huber_delta_m / std::abs(r);
+    sys.hessian += w * J * J.transpose();
+    sys.gradient += w * J * r;
+    sys.cost += 0.5 * w * r * r;
+    sys.sum_sq_m2 += r * r;
   }
-  for (std::size_t i = 0; i < sum.size(); ++i) sum[i] /= static_cast<double>(count[i]);
-  return sum;
+  return sys;
 }
 
 ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std::vector<Vec3>& source,
@@ -90,27 +90,22 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
   Iso3 T = T_target_source_init;
   Mat6 H_last = Mat6::Zero();
   for (int iter = 0; iter < n_iter; ++iter) {
-    Mat6 H = Mat6::Zero();
-    Vec6 g = Vec6::Zero();
-    double sum_r2 = 0.0;
-    int inliers = 0;
+    // Associate each source point with its nearest target point inside the gate.
+    std::vector<Vec3> p_source, q_target, n_target;
     for (const Vec3& p_s : source) {
       const Vec3 p = T * p_s;
       std::uint32_t j = 0;
       double d2 = 0.0;
-      if (tree.knnSearch(p.data(), 1, &j, &d2) < 1 || d2 > gate_m * gate_m) continue;
-      const Vec3& n = normals[j];
-      if (n.isZero()) continue;
-      const double r = n.dot(p - target[j]);
-      // Left perturbation T <- exp([rho, omega]) T: dp = rho + omega x p.
-      Vec6 J;
-      J << n, p.cross(n);
-      const double w = std::abs(r) <= config.huber_delta_m ? 1.0 : config.huber_delta_m / std::abs(r);
-      H += w * J * J.transpose();
-      g += w * J * r;
-      sum_r2 += r * r;
-      ++inliers;
+      if (tree.knnSearch(p.data(), 1, &j, &d2) < 1 || d2 > gate_m * gate_m || normals[j].isZero()) continue;
+      p_source.push_back(p_s);
+      q_target.push_back(target[j]);
+      n_target.push_back(normals[j]);
     }
+    const PointToPlaneSystem sys = point_to_plane_system(p_source, q_target, n_target, T, config.huber_delta_m);
+    const Mat6& H = sys.hessian;
+    const Vec6& g = sys.gradient;
+    const int inliers = static_cast<int>(p_source.size());
+    const double sum_r2 = sys.sum_sq_m2;
     result.iterations = iter + 1;
     result.num_inliers = inliers;
     result.rms_m = inliers > 0 ? std::sqrt(sum_r2 / inliers) : 0.0;

@@ -31,12 +31,22 @@ struct ScanRegistrationResult {
   double min_information = 0.0;
 };
 
+/// The Gauss-Newton system of point-to-plane residuals r_i = n_i . (T p_i - q_i) for fixed
+/// associations (source p_i to target point q_i with normal n_i), Huber-weighted, in the left
+/// perturbation T <- exp([rho; omega]) T. Exposed so a test can check its Jacobian numerically.
+struct PointToPlaneSystem {
+  double cost = 0.0;        ///< sum of 0.5 w r^2
+  double sum_sq_m2 = 0.0;   ///< sum of r^2 (unweighted)
+  Vec6 gradient = Vec6::Zero();
+  Mat6 hessian = Mat6::Zero();
+};
+PointToPlaneSystem point_to_plane_system(const std::vector<Vec3>& p_source, const std::vector<Vec3>& q_target,
+                                         const std::vector<Vec3>& n_target, const Iso3& T_target_source,
+                                         double huber_delta_m);
+
 /// Point-to-plane ICP: finds T_target_source so that T_target_source * source lies on target surfaces.
 ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std::vector<Vec3>& source,
                                       const Iso3& T_target_source_init,
                                       const ScanRegistrationConfig& config = {});
-
-/// One point per occupied voxel (the centroid), order deterministic.
-std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m);
 
 }  // namespace insalign

@@ -1,5 +1,7 @@
 #include "core/voxel_grid.hpp"
 
+#include <unordered_map>
+
 namespace insalign {
 
 std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m) {
@@ -31,6 +33,26 @@ std::vector<Vec3f> voxel_downsample(std::span<const Vec3f> points, double voxel_
   std::vector<Vec3f> out;
   for (std::uint32_t i : voxel_downsample_indices(points, voxel_m)) out.push_back(points[i]);
   return out;
+}
+
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m) {
+  const double inv = 1.0 / voxel_m;
+  std::unordered_map<std::uint64_t, std::uint32_t> slot;
+  slot.reserve(points.size());
+  std::vector<Vec3> sum;
+  std::vector<int> count;
+  for (const Vec3& p : points) {
+    auto [it, inserted] = slot.try_emplace(voxel_key(p, inv), static_cast<std::uint32_t>(sum.size()));
+    if (inserted) {
+      sum.push_back(p);
+      count.push_back(1);
+    } else {
+      sum[it->second] += p;
+      ++count[it->second];
+    }
+  }
+  for (std::size_t i = 0; i < sum.size(); ++i) sum[i] /= static_cast<double>(count[i]);
+  return sum;
 }
 
 }  // namespace insalign

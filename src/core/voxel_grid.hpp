@@ -44,4 +44,7 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
 /// The points of voxel_downsample_indices.
 std::vector<Vec3f> voxel_downsample(std::span<const Vec3f> points, double voxel_m);
 
+/// One point per occupied voxel: the centroid of its points; deterministic order (first met).
+std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m);
+
 }  // namespace insalign

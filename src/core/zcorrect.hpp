@@ -3,14 +3,17 @@
 // or the known height of the INS origin above the ground.
 #pragma once
 
+#include <array>
 #include <cstddef>
+#include <span>
 #include <limits>
 #include <optional>
 #include <string>
 #include <vector>
 
-#include "core/dataset.hpp"
+#include "core/frame_store.hpp"
 #include "core/geometry.hpp"
+#include "core/stage.hpp"
 
 namespace insalign {
 
@@ -19,6 +22,15 @@ enum class FiducialMatch {
   kNearestNeighbour,  ///< height of the map point horizontally nearest the fiducial (the paper)
   kLocalPlane,        ///< robust plane through the map points near it, evaluated at the fiducial
 };
+inline constexpr std::array<std::pair<FiducialMatch, std::string_view>, 2> kFiducialMatchNames{
+    {{FiducialMatch::kLocalPlane, "local-plane"}, {FiducialMatch::kNearestNeighbour, "nearest-neighbour"}}};
+constexpr auto enum_names(FiducialMatch) { return std::span(kFiducialMatchNames); }
+
+/// What fixed tz.
+enum class ZMethod { kNone, kFiducials, kInsHeight };
+inline constexpr std::array<std::pair<ZMethod, std::string_view>, 3> kZMethodNames{
+    {{ZMethod::kNone, "none"}, {ZMethod::kFiducials, "fiducials"}, {ZMethod::kInsHeight, "ins-height"}}};
+constexpr auto enum_names(ZMethod) { return std::span(kZMethodNames); }
 
 struct ZConfig {
   /// kLocalPlane averages the LiDAR range noise of many points instead of taking one point's;
@@ -44,8 +56,6 @@ struct ZConfig {
   /// and trajectory together). 1 cm: an RTK-fixed INS (~1.5 cm vertical RMS, partly averaging
   /// over a few minutes of driving). The height prior is relative to the INS poses: not affected.
   double ins_vertical_sigma_m = 0.01;
-  /// Points nearer to the LiDAR than this are the car body or its shadow and are dropped.
-  double min_range_m = 2.5;
   /// Frames used for a fiducial: those whose LiDAR passes within [min_view_distance_m,
   /// max_view_distance_m] horizontally of it, nearest first, at most frames_per_fiducial of
   /// them (ground sampling is densest at short range; more frames cost load time).
@@ -74,7 +84,33 @@ struct ZConfig {
   std::size_t ground_frames_per_sample = 3;
   /// A ground plane steeper than this is not ground (a ramp wall, a car side).
   double max_ground_slope_deg = 15.0;
+  /// A place whose ground height is less certain than this (ground seen on one side only, far
+  /// from the INS) would only add noise: skipped.
+  double max_ground_sigma_m = 0.01;
 };
+
+template <class V>
+void visit_config(V& v, ZConfig& c) {
+  v("match", c.match, "how a fiducial meets the map: local-plane (robust plane) or nearest-neighbour (the paper)");
+  v("search_radius_m", c.search_radius_m, "map points within this horizontal distance form a fiducial's local map, m");
+  v("min_points", c.min_points, "a fiducial needs at least this many map points");
+  v("outlier_threshold_m", c.outlier_threshold_m, "fiducials farther than max(this, mad_factor * MAD) from the median dz are outliers, m");
+  v("outlier_mad_factor", c.outlier_mad_factor, "see outlier_threshold_m");
+  v("min_fiducials", c.min_fiducials, "fewer usable fiducials and tz is not determined");
+  v("fiducial_sigma_m", c.fiducial_sigma_m, "survey noise of a fiducial (1 sigma), m");
+  v("ins_vertical_sigma_m", c.ins_vertical_sigma_m, "absolute height error of the INS over the drive (1 sigma), m");
+  v("min_view_distance_m", c.min_view_distance_m, "frames used for a fiducial pass at least this far from it, m");
+  v("max_view_distance_m", c.max_view_distance_m, "...and at most this far, m");
+  v("frames_per_fiducial", c.frames_per_fiducial, "at most this many frames per fiducial per round");
+  v("max_frames_per_fiducial", c.max_frames_per_fiducial, "more (farther) frames for a fiducial seen in too few, up to this many");
+  v("min_frame_separation_s", c.min_frame_separation_s, "frames for one fiducial at least this far apart in time, s");
+  v("height_samples", c.height_samples, "height prior: places along the drive where the ground under the INS is measured");
+  v("ground_radius_m", c.ground_radius_m, "height prior: ground points within this of the INS origin are fitted, m");
+  v("ground_window_s", c.ground_window_s, "height prior: neighbouring frames within this time are stitched in, s");
+  v("ground_frames_per_sample", c.ground_frames_per_sample, "height prior: frames stitched per sample");
+  v("max_ground_slope_deg", c.max_ground_slope_deg, "height prior: a steeper plane is not ground, deg");
+  v("max_ground_sigma_m", c.max_ground_sigma_m, "height prior: a place whose ground height is less certain is skipped, m");
+}
 
 /// One fiducial's comparison with the map. Residual = fiducial z - map surface z at the
 /// fiducial's horizontal position, before and after the correction.
@@ -88,25 +124,23 @@ struct FiducialResidual {
 };
 
 struct ZResult {
-  bool determined = false;
-  std::string method = "none";  ///< "fiducials", "ins-height" or "none"
-  /// Plain words for the report, e.g. "tz not determined: no fiducials and no --ins-height-m
-  /// given; kept at the initial value".
-  std::string explanation;
+  /// kOk: tz determined (determined[2], stddev[2]); kUndetermined: fiducials or a height were
+  /// given but could not fix it; kSkipped: neither was given. The message says which and why.
+  StageOutcome outcome;
+  ZMethod method = ZMethod::kNone;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< tz corrected (unchanged if not determined)
   double dz_m = 0.0;                    ///< added to tz
-  double tz_stddev_m = std::numeric_limits<double>::quiet_NaN();
   std::vector<FiducialResidual> fiducials;
   std::size_t height_samples_used = 0;  ///< height prior: places where the ground was measured
   std::size_t frames_loaded = 0;
-  double wall_time_s = 0.0;
+  bool determined() const { return outcome.ok(); }
+  double tz_stddev_m() const { return outcome.stddev[2]; }
 };
 
-/// Corrects tz of T_ins_lidar (its rotation and tx, ty are kept). Uses data.fiducials if there
-/// are any, else ins_height_m (height of the INS origin above the ground) if given, else
+/// Corrects tz of T_ins_lidar (its rotation and tx, ty are kept). Uses the dataset's fiducials if
+/// there are any, else ins_height_m (height of the INS origin above the ground) if given, else
 /// nothing. Frames are placed with per-point deskew and time_offset_s (LiDAR -> INS clock).
-/// Never throws for lack of data: determined = false and the explanation says why.
-ZResult correct_z(const Dataset& data, const Iso3& T_ins_lidar, double time_offset_s,
+ZResult correct_z(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
                   std::optional<double> ins_height_m, const ZConfig& config = {});
 
 }  // namespace insalign

@@ -127,3 +127,25 @@ void write_opencalib_extrinsic(const std::filesystem::path& path, const Iso3& T_
 }
 
 }  // namespace insalign::io
+
+namespace insalign::io {
+
+ExtrinsicFile read_extrinsic_file(const std::filesystem::path& path) {
+  const nlohmann::json j = parse_json(path);
+  ExtrinsicFile out;
+  if (!j.is_object() || !j.contains("T_ins_lidar")) {
+    out.T_ins_lidar = read_opencalib_extrinsic(path);
+    out.opencalib = true;
+    return out;
+  }
+  out.T_ins_lidar = transform_from_json(j.at("T_ins_lidar"), path.string());
+  if (j.contains("time_offset_s")) {
+    const auto& t = j.at("time_offset_s");
+    if (!t.is_number() || !std::isfinite(t.get<double>()))
+      throw InputError(path.string(), "", "\"time_offset_s\" is not a finite number");
+    out.time_offset_s = t.get<double>();
+  }
+  return out;
+}
+
+}  // namespace insalign::io

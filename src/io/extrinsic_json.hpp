@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 
 #include "core/geometry.hpp"
@@ -23,5 +24,15 @@ nlohmann::json transform_to_json(const Iso3& T);
 /// Inverse of transform_to_json; checks shape, finiteness, last row and the rotation
 /// (orthonormal within 1e-3, det +1, re-orthonormalised). Throws InputError(file_for_errors, ...).
 Iso3 transform_from_json(const nlohmann::json& j, const std::string& file_for_errors);
+
+/// An extrinsic from any of the JSON files insalign reads: a result's extrinsic.json or a
+/// simulated ground_truth.json ("T_ins_lidar", optional "time_offset_s"), or an OpenCalib JSON
+/// (T_lidar_ins). The one reader of extrinsic.json. Throws InputError naming the file.
+struct ExtrinsicFile {
+  Iso3 T_ins_lidar = Iso3::Identity();
+  std::optional<double> time_offset_s;
+  bool opencalib = false;  ///< read from the OpenCalib shape
+};
+ExtrinsicFile read_extrinsic_file(const std::filesystem::path& path);
 
 }  // namespace insalign::io

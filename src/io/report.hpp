@@ -52,7 +52,7 @@ struct FiducialRow {
 /// The verdict per degree of freedom, in the order tx ty tz roll pitch yaw.
 struct ObservabilityReport {
   std::array<bool, 6> determined{};
-  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::quiet_NaN());  ///< m, m, m, deg, deg, deg
+  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());  ///< m and rad; +inf: not determined
   std::string explanation;
 };
 
@@ -67,8 +67,8 @@ struct SegmentRow {
 
 struct RepeatabilityReport {
   std::vector<SegmentRow> segments;
-  Vec6 spread = Vec6::Zero();  ///< max - min over the segments that succeeded: m, m, m, deg, deg, deg
-  Vec6 warn_above = (Vec6() << 0.02, 0.02, 0.02, 0.1, 0.1, 0.1).finished();
+  Vec6 spread = Vec6::Zero();  ///< max - min over the segments that succeeded: m and rad
+  Vec6 warn_above = Vec6::Zero();  ///< a spread above this is flagged (from the config), m and rad
 };
 
 struct ReportData {

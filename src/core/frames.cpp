@@ -1,0 +1,151 @@
+#include "core/frames.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/voxel_grid.hpp"
+
+namespace insalign {
+namespace {
+
+constexpr double kPeriodSlack = 1.1;  // sweeps are a little longer than the nominal period (jitter)
+
+// [lo, hi] of the point times relative to the frame time (<= 0), or [0, 0] without times.
+std::pair<double, double> dt_range(const Sweep& sweep) {
+  if (!sweep.has_time() || sweep.dt_s.empty()) return {0.0, 0.0};
+  const auto [lo, hi] = std::minmax_element(sweep.dt_s.begin(), sweep.dt_s.end());
+  return {*lo, *hi};
+}
+
+}  // namespace
+
+Sweep thin_sweep(const Sweep& sweep, const SweepFilter& filter) {
+  const float r2_min = static_cast<float>(filter.min_range_m * filter.min_range_m);
+  const float r2_max = static_cast<float>(filter.max_range_m * filter.max_range_m);
+  std::vector<std::uint32_t> in_range;
+  in_range.reserve(sweep.size() / 2);
+  std::vector<Vec3f> points;
+  points.reserve(sweep.size() / 2);
+  for (std::size_t i = 0; i < sweep.size(); ++i) {
+    const Vec3f& p = sweep.p_lidar[i];
+    const float r2 = p.squaredNorm();
+    if (!(r2 >= r2_min && r2 <= r2_max)) continue;  // also drops NaN
+    in_range.push_back(static_cast<std::uint32_t>(i));
+    points.push_back(p);
+  }
+  std::vector<std::uint32_t> kept = voxel_downsample_indices(points, filter.voxel_m);
+  if (filter.max_points > 0 && kept.size() > filter.max_points) {
+    std::vector<std::uint32_t> thin(filter.max_points);
+    const double stride = static_cast<double>(kept.size()) / static_cast<double>(thin.size());
+    for (std::size_t k = 0; k < thin.size(); ++k) thin[k] = kept[static_cast<std::size_t>(k * stride)];
+    kept.swap(thin);
+  }
+  Sweep out;
+  out.name = sweep.name;
+  out.t_end_s = sweep.t_end_s;
+  out.p_lidar.reserve(kept.size());
+  for (std::uint32_t k : kept) out.p_lidar.push_back(points[k]);
+  if (sweep.has_time()) {
+    out.dt_s.reserve(kept.size());
+    for (std::uint32_t k : kept) out.dt_s.push_back(sweep.dt_s[in_range[k]]);
+  }
+  if (!sweep.intensity.empty()) {
+    out.intensity.reserve(kept.size());
+    for (std::uint32_t k : kept) out.intensity.push_back(sweep.intensity[in_range[k]]);
+  }
+  return out;
+}
+
+double sweep_period_s(const std::vector<FrameInfo>& frames, const FramesConfig& config) {
+  if (config.sweep_period_s > 0.0) return config.sweep_period_s;
+  if (frames.size() < 2) return 0.1;
+  std::vector<double> gaps;
+  gaps.reserve(frames.size() - 1);
+  for (std::size_t i = 1; i < frames.size(); ++i) gaps.push_back(frames[i].t_end_s - frames[i - 1].t_end_s);
+  std::nth_element(gaps.begin(), gaps.begin() + static_cast<std::ptrdiff_t>(gaps.size() / 2), gaps.end());
+  return std::clamp(gaps[gaps.size() / 2], 0.02, 0.25);
+}
+
+bool sweep_covered(const PoseStream& poses, double t_end_s, double period_s, double time_offset_s, double margin_s) {
+  const double t = t_end_s + time_offset_s;
+  return poses.covers(t - kPeriodSlack * period_s - margin_s) && poses.covers(t + margin_s);
+}
+
+bool sweep_covered(const PoseStream& poses, const Sweep& sweep, double time_offset_s, double margin_s) {
+  if (sweep.size() == 0) return false;
+  const auto [lo, hi] = dt_range(sweep);
+  const double t = sweep.t_end_s + time_offset_s;
+  return poses.covers(t + lo - margin_s) && poses.covers(t + hi + margin_s);
+}
+
+DriveFrames drive_frames(const Dataset& data, const FramesConfig& config, double time_offset_s, double margin_s) {
+  DriveFrames out;
+  if (data.poses.empty()) return out;
+  const std::vector<FrameInfo>& infos = data.frames.frames;
+  const double period = sweep_period_s(infos, config);
+  for (std::size_t i = 0; i < infos.size(); ++i) {
+    if (!sweep_covered(data.poses, infos[i].t_end_s, period, time_offset_s, margin_s)) continue;
+    out.index.push_back(i);
+    out.t_end_s.push_back(infos[i].t_end_s);
+    out.T_world_ins.push_back(data.poses.T_world_ins(infos[i].t_end_s + time_offset_s));
+  }
+  out.motion_m.assign(out.size(), 0.0);
+  for (std::size_t k = 1; k < out.size(); ++k) {
+    const Iso3 T_prev_cur = out.T_world_ins[k - 1].inverse() * out.T_world_ins[k];
+    const double d = T_prev_cur.translation().norm();
+    const double a = Eigen::AngleAxisd(T_prev_cur.linear()).angle();
+    out.distance_m += d;
+    out.turned_rad += a;
+    if (d > 1e-3 || a > 1e-4) ++out.moving;
+    out.motion_m[k] = out.motion_m[k - 1] + d + config.turn_weight_m_per_rad * a;
+  }
+  return out;
+}
+
+std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first,
+                                            std::size_t last) {
+  std::vector<std::size_t> out;
+  if (frames.size() == 0 || n == 0) return out;
+  last = std::min(last, frames.size() - 1);
+  if (first > last) return out;
+  const double s0 = frames.motion_m[first], span = frames.motion_m[last] - s0;
+  std::size_t k = first;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double target = s0 + span * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
+    while (k < last && frames.motion_m[k] < target) ++k;
+    if (out.empty() || out.back() != k) out.push_back(k);
+  }
+  return out;
+}
+
+std::vector<std::vector<std::size_t>> spread_groups(const DriveFrames& frames, const FramesConfig& config,
+                                                    std::size_t n_groups, std::size_t per_group) {
+  std::vector<std::vector<std::size_t>> groups;
+  if (frames.size() < 2 || n_groups == 0 || per_group < 2) return groups;
+  const double total = frames.motion_m.back();
+  if (total < config.min_step_m) return groups;
+  const double min_step_rad = config.min_step_deg * kRadPerDeg;
+  std::size_t next_free = 0;  // groups never overlap
+  for (std::size_t g = 0; g < n_groups; ++g) {
+    const double anchor = total * static_cast<double>(g) / static_cast<double>(n_groups);
+    std::size_t k = static_cast<std::size_t>(
+        std::lower_bound(frames.motion_m.begin(), frames.motion_m.end(), anchor) - frames.motion_m.begin());
+    k = std::max(k, next_free);
+    if (k >= frames.size()) break;
+    std::vector<std::size_t> group{k};
+    for (std::size_t j = k + 1; j < frames.size() && group.size() < per_group; ++j) {
+      const Iso3 T_last_j = frames.T_world_ins[group.back()].inverse() * frames.T_world_ins[j];
+      if (T_last_j.translation().norm() >= config.min_step_m ||
+          Eigen::AngleAxisd(T_last_j.linear()).angle() >= min_step_rad) {
+        group.push_back(j);
+      }
+    }
+    if (group.size() < 2) continue;
+    next_free = group.back() + 1;
+    for (std::size_t& position : group) position = frames.index[position];
+    groups.push_back(std::move(group));
+  }
+  return groups;
+}
+
+}  // namespace insalign

@@ -1,0 +1,114 @@
+#include "core/repeatability.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <cmath>
+#include <fmt/format.h>
+
+namespace insalign {
+namespace {
+
+// The frames of the full run's selections whose time lies in [t0, t1).
+struct SegmentFrames {
+  FrameGroups groups;
+  std::vector<std::size_t> refine;
+};
+SegmentFrames slice(const FrameStore& store, const RepeatabilityInputs& in, double t0, double t1) {
+  const auto& frames = store.data().frames.frames;
+  auto inside = [&](std::size_t i) { return frames[i].t_end_s >= t0 && frames[i].t_end_s < t1; };
+  SegmentFrames out;
+  for (const auto& g : in.rough_groups)
+    if (inside(g.front())) out.groups.push_back(g);
+  for (std::size_t i : in.refine_frames)
+    if (inside(i)) out.refine.push_back(i);
+  return out;
+}
+
+SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
+                                const RoughConfig& rough_config, const RefineConfig& refine_config) {
+  SegmentResult out;
+  const RoughResult rough = calibrate_rough(store, frames.groups, in.T_ins_lidar_start, rough_config);
+  if (!rough.outcome.ok()) {
+    out.message = rough.outcome.message;
+    return out;
+  }
+  out.T_ins_lidar = rough.T_ins_lidar;
+  if (!frames.refine.empty()) {
+    std::string warning;  // the segments' spread is the verdict here
+    const RefineResult refine =
+        refine_checked(store, frames.refine, rough.T_ins_lidar, 0.0, in.max_speed_mps, refine_config, {}, warning);
+    if (!refine.outcome.ok()) {
+      out.message = refine.outcome.message;
+      return out;
+    }
+    out.T_ins_lidar = refine.T_ins_lidar;
+    out.time_offset_s = refine.time_offset_s;
+  }
+  out.ok = true;
+  return out;
+}
+
+std::string format_spread(const Vec6& spread) {
+  return fmt::format("x {:.3g} cm, y {:.3g} cm, roll {:.3g} deg, pitch {:.3g} deg, yaw {:.3g} deg", spread[0] * 100,
+                     spread[1] * 100, spread[3] * kDegPerRad, spread[4] * kDegPerRad, spread[5] * kDegPerRad);
+}
+
+// Spread over the successful segments, and the whole drive's sigma it implies.
+void summarise(const RepeatabilityInputs& in, const RepeatabilityConfig& config, RepeatabilityResult& r) {
+  Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
+  for (const SegmentResult& seg : r.segments) {
+    if (!seg.ok) continue;
+    ++r.segments_ok;
+    Vec6 v;
+    v.head<3>() = seg.T_ins_lidar.translation();
+    v.tail<3>() = so3_log(seg.T_ins_lidar.linear() * in.T_ins_lidar_full.linear().transpose());
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  if (r.segments_ok < 2) {
+    r.warning = "repeatability: fewer than two segments could be calibrated on their own";
+    return;
+  }
+  r.spread = hi - lo;
+  r.spread[2] = 0.0;
+  constexpr double kRangeFactor[] = {1.0, 1.0, 1.128, 1.693, 2.059, 2.326};
+  const double d_n = kRangeFactor[std::min(r.segments_ok, 5)];
+  for (int i : {0, 1, 3, 4, 5}) r.stddev_whole_drive[i] = r.spread[i] / (d_n * std::sqrt(double(r.segments_ok)));
+  const bool large = r.spread.head<2>().maxCoeff() > config.warn_trans_m ||
+                     r.spread.tail<3>().maxCoeff() > config.warn_rot_deg * kRadPerDeg;
+  if (large) {
+    r.warning = "segments of the drive disagree more than expected (" + format_spread(r.spread) +
+                "): check for moving objects, INS quality or a loose mount";
+  }
+}
+
+}  // namespace
+
+RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
+                                      const RoughConfig& rough, const RefineConfig& refine,
+                                      const RepeatabilityConfig& config) {
+  const auto start = std::chrono::steady_clock::now();
+  RepeatabilityResult result;
+  const auto& frames = store.data().frames.frames;
+  if (config.segments < 2 || frames.empty()) return result;
+  const std::size_t k = static_cast<std::size_t>(config.segments);
+  result.segments.resize(k);
+  tbb::parallel_for(std::size_t{0}, k, [&](std::size_t s) {
+    const std::size_t begin = s * frames.size() / k, end = (s + 1) * frames.size() / k;
+    SegmentResult& seg = result.segments[s];
+    if (begin >= end) return;
+    const double t0 = frames[begin].t_end_s;
+    const double t1 = end < frames.size() ? frames[end].t_end_s : frames.back().t_end_s + 1.0;
+    const SegmentFrames own = slice(store, inputs, t0, t1);
+    seg = calibrate_segment(store, inputs, own, rough, refine);
+    seg.t_begin_s = t0;
+    seg.t_end_s = frames[end - 1].t_end_s;
+    seg.frames = end - begin;
+  });
+  summarise(inputs, config, result);
+  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+}  // namespace insalign

@@ -1,0 +1,67 @@
+// The repeatability study: the drive cut into disjoint time segments, each calibrated alone
+// (stages 1 and 2 from the same start), so that the spread of the results shows, without ground
+// truth, how well the drive pins the extrinsic down. Segments use the full run's own frames
+// (the part of its selections inside their time span) from the same store, so they decode
+// nothing again, and they run in parallel.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "core/frame_store.hpp"
+#include "core/refine.hpp"
+#include "core/rough.hpp"
+
+namespace insalign {
+
+struct RepeatabilityConfig {
+  int segments = 3;            ///< disjoint time segments; 0 or 1: off
+  double warn_rot_deg = 0.1;   ///< a spread (max - min) above this is a warning
+  double warn_trans_m = 0.02;
+};
+
+template <class V>
+void visit_config(V& v, RepeatabilityConfig& c) {
+  v("segments", c.segments, "disjoint drive segments calibrated on their own to show the spread (0 or 1: off)");
+  v("warn_rot_deg", c.warn_rot_deg, "segment spread (max - min) above this is a warning, deg");
+  v("warn_trans_m", c.warn_trans_m, "segment spread (max - min) above this is a warning, m");
+}
+
+/// One segment.
+struct SegmentResult {
+  double t_begin_s = 0.0, t_end_s = 0.0;  ///< LiDAR clock
+  std::size_t frames = 0;
+  bool ok = false;                        ///< false: the segment alone could not be calibrated
+  std::string message;                    ///< why not
+  Iso3 T_ins_lidar = Iso3::Identity();
+  double time_offset_s = 0.0;
+};
+
+struct RepeatabilityResult {
+  std::vector<SegmentResult> segments;
+  int segments_ok = 0;
+  /// max - min over the segments that succeeded [tx ty tz roll pitch yaw], m and rad (rotations
+  /// relative to the full result, in the INS frame); tz 0 (not estimated per segment).
+  Vec6 spread = Vec6::Zero();
+  /// What the spread says of the whole drive's one-sigma error: range / (d_n sqrt(n)) for n
+  /// segments (the expected range of n normal samples is d_n sigma, and a segment has 1/n of the
+  /// data). +inf where fewer than two segments succeeded.
+  Vec6 stddev_whole_drive = Vec6::Constant(std::numeric_limits<double>::infinity());
+  std::string warning;                    ///< a spread above the config's limits, or too few segments
+  double wall_time_s = 0.0;
+};
+
+struct RepeatabilityInputs {
+  FrameGroups rough_groups;               ///< the full run's stage-1 groups
+  std::vector<std::size_t> refine_frames; ///< the full run's stage-2 frames (empty: no stage 2)
+  Iso3 T_ins_lidar_start = Iso3::Identity();
+  Iso3 T_ins_lidar_full = Iso3::Identity();  ///< the full run's result (rotations are relative to it)
+  double max_speed_mps = 0.0;
+};
+
+RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
+                                      const RoughConfig& rough, const RefineConfig& refine,
+                                      const RepeatabilityConfig& config);
+
+}  // namespace insalign

@@ -1,0 +1,73 @@
+// Stage 3's measurement: the height of the map surface at a horizontal position (a fiducial, or
+// the ground under the INS), how it moves when tz changes, and the robust combination of many
+// such measurements into one dz.
+#pragma once
+
+#include <cstddef>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "core/frame_store.hpp"
+#include "core/geometry.hpp"
+#include "core/zcorrect.hpp"
+
+namespace insalign {
+
+/// A place where the map surface height is measured: map points within radius_m (horizontal) of
+/// centre_xy, from the listed frames.
+struct Target {
+  Eigen::Vector2d centre_xy = Eigen::Vector2d::Zero();
+  double radius_m = 0.0;
+  std::vector<std::size_t> frames;  ///< indices into the dataset's frames, sorted
+};
+
+/// Map points gathered for one target, and the sum of R_world_ins * e_z of the frame each came
+/// from: the direction a point moves when tz grows.
+struct LocalMap {
+  std::vector<Vec3> p_world;
+  Vec3 up_sum = Vec3::Zero();
+  std::size_t frames = 0;  ///< frames that contributed points
+  Vec3 mean_up() const { return p_world.empty() ? Vec3::UnitZ() : Vec3(up_sum / double(p_world.size())); }
+  void append(const LocalMap& other);
+};
+
+/// Loads each frame any target needs once (raw, in parallel), places it with per-point deskew
+/// and hands every target the points near it. Frames the poses do not cover are skipped.
+std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>& targets, const Iso3& T_ins_lidar,
+                             double time_offset_s, std::size_t* frames_loaded);
+
+/// Height of the map surface at a horizontal position and how it moves with tz.
+struct SurfaceHeight {
+  bool ok = false;
+  double z_m = std::numeric_limits<double>::quiet_NaN();      ///< surface height at the centre
+  double sigma_m = std::numeric_limits<double>::quiet_NaN();  ///< standard error of z_m
+  double dz_gain = 1.0;       ///< d(z_m)/d(tz): the vertical move of a tilted surface per tz change
+  std::size_t points = 0;     ///< points the estimate used (inliers)
+  std::string problem;        ///< why not ok
+};
+
+/// Robust plane z = a dx + b dy + c around the centre (start at the densest height: the ground
+/// dominates a small disc even next to a wall or a pole; then least squares dropping points
+/// beyond 3 robust sigma, a few rounds), evaluated as `match` says. Not ok for too few points or
+/// a slope above max_slope_deg.
+SurfaceHeight fit_surface(const LocalMap& map, const Eigen::Vector2d& centre_xy, FiducialMatch match,
+                          std::size_t min_points, double max_slope_deg, double init_window_m);
+
+/// One measurement of dz with its standard error.
+struct DzSample {
+  double dz_m = std::numeric_limits<double>::quiet_NaN();
+  double sigma_m = std::numeric_limits<double>::quiet_NaN();
+};
+
+struct RobustMean {
+  double mean_m = 0.0;
+  double stddev_m = std::numeric_limits<double>::quiet_NaN();  ///< formal, or the scatter if larger
+  double threshold_m = 0.0;
+  std::vector<char> inlier;
+};
+/// Samples farther than max(floor_m, mad_factor * robust sigma) from the median are rejected;
+/// weighted mean of the rest, then once more against that mean.
+RobustMean robust_mean(const std::vector<DzSample>& samples, double floor_m, double mad_factor);
+
+}  // namespace insalign

@@ -1,0 +1,39 @@
+// The one mapping from a CalibrationResult to what a person or a program reads: extrinsic.json
+// (CONVENTIONS.md), the report's data, and the terminal summary. Units convert here, once: the
+// core works in m and rad, the outputs show m and deg; "not determined" (+inf) is JSON null.
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "core/frame_store.hpp"
+#include "core/pipeline.hpp"
+#include "io/dataset.hpp"
+#include "io/report.hpp"
+
+namespace insalign::io {
+
+/// What the command knows beside the result.
+struct RunInfo {
+  LoadReport load;
+  std::vector<std::filesystem::path> format_files;  ///< the extrinsic in other tools' formats
+  double peak_memory_mb = 0.0;
+};
+
+/// The extrinsic alone in the result shape: T_ins_lidar, translation_m, rpy_deg, quaternion_wxyz.
+nlohmann::json extrinsic_fields(const Iso3& T_ins_lidar);
+
+nlohmann::json result_to_json(const CalibrationResult& result, const RunInfo& run);
+
+/// Tables from the result and the maps of the same frames at each stage's extrinsic (stitched
+/// from the store: nothing is decoded again). Warning limits come from `config`.
+ReportData report_data(const CalibrationResult& result, const FrameStore& store, const RunInfo& run,
+                       const PipelineConfig& config, const std::function<void(double)>& progress = {});
+
+/// The terminal summary: the extrinsic with its verdicts, the stages' costs and times, warnings.
+std::string summary_text(const CalibrationResult& result, const RunInfo& run);
+
+}  // namespace insalign::io
