@@ -41,8 +41,10 @@ Topic make_topic(const std::string& name, const std::string& type, MessageEncodi
           ros1 ? "ros1msg" : "ros2msg", ros1 ? def->ros1_md5 : "", 0};
 }
 
+// Stamp::from_seconds splits off the whole seconds first: the stamp reads back as the same double
+// (t * 1e9 near 1.7e18 would round to 256 ns).
 Header header_at(double t_s, const std::string& frame_id, std::uint32_t seq = 0) {
-  return {seq, Stamp::from_nanoseconds(to_ns(t_s)), frame_id};
+  return {seq, Stamp::from_seconds(t_s), frame_id};
 }
 
 DriverLayout driver_layout(LidarConvention c) {
@@ -63,6 +65,18 @@ const char* driver_topic(LidarConvention c) {
     case LidarConvention::kNone: return "/points";
   }
   return "/points";
+}
+
+// A cloud as the driver publishes it. With absolute or no per-point times the stamp only dates the
+// frame: set exactly (make_pointcloud2 rounds it through nanoseconds near 1.7e18).
+PointCloud2 driver_cloud(const Sweep& sweep, LidarConvention c, const std::string& frame_id) {
+  PointCloud2 cloud = make_pointcloud2(sweep, driver_layout(c), frame_id);
+  if (c == LidarConvention::kHesai && sweep.has_time()) {
+    cloud.header.stamp = Stamp::from_seconds(sweep.t_end_s + *std::min_element(sweep.dt_s.begin(), sweep.dt_s.end()));
+  } else if (c == LidarConvention::kNone) {
+    cloud.header.stamp = Stamp::from_seconds(sweep.t_end_s);
+  }
+  return cloud;
 }
 
 std::uint32_t novatel_pos_type(GnssSolution s) {
@@ -302,7 +316,7 @@ void write_messages(const sim::World& world, const SimBagOptions& o, BagWriter& 
       const CloudEvent& c = clouds[e];
       const Sweep sweep = sim::render_lidar_sweep(world, c.lidar, c.frame);
       const std::string frame_id = world.lidars.size() == 1 ? "lidar" : world.lidars[c.lidar].name;
-      encoded[e - begin] = encode_message(make_pointcloud2(sweep, driver_layout(o.lidar_convention), frame_id), enc);
+      encoded[e - begin] = encode_message(driver_cloud(sweep, o.lidar_convention, frame_id), enc);
       points[e - begin] = sweep.size();
     });
     for (std::size_t e = begin; e < end; ++e) {

@@ -85,6 +85,7 @@ std::string range_words(const ClockReport& c) {
 std::string gap_words(const ClockReport& c, double gap_s, bool from_records) {
   std::string out = fmt::format("the INS stamps are {} than the LiDAR's ({})", signed_s(gap_s),
                                 from_records ? "median at equal record time" : "between the middles of the two ranges");
+  if (c.consistent && std::abs(gap_s) < kMaxStampGap_s) return "the clocks agree: " + out;
   if (c.explanation) {
     return out + fmt::format(", close to {:.0f} s: {}", c.explanation->whole_s, c.explanation->meaning);
   }
