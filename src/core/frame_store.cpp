@@ -8,16 +8,30 @@ namespace insalign {
 
 FrameStore::FrameStore(const Dataset& data, const SweepFilter& base, const FramesConfig& frames)
     : data_(&data),
+      poses_(std::shared_ptr<const PoseStream>(std::shared_ptr<const PoseStream>{}, &data.poses)),
       base_(base),
       frames_(frames),
       period_s_(insalign::sweep_period_s(data.frames.frames, frames)),
-      slots_(new Slot[data.frames.frames.size()]) {}
+      cache_(std::make_shared<Cache>(data.frames.frames.size())) {}
+
+FrameStore FrameStore::with(PoseStream poses, std::vector<TimeSpan> excluded) const {
+  FrameStore out = *this;
+  out.poses_ = std::make_shared<const PoseStream>(std::move(poses));
+  out.excluded_ = std::move(excluded);
+  return out;
+}
+
+bool FrameStore::excluded(double t0_s, double t1_s) const {
+  for (const TimeSpan& span : excluded_)
+    if (t1_s >= span.begin_s && t0_s <= span.end_s) return true;
+  return false;
+}
 
 const Sweep& FrameStore::reduced(std::size_t index) const {
-  Slot& slot = slots_[index];
+  Slot& slot = cache_->slots[index];
   std::call_once(slot.once, [&] {
     slot.sweep = std::make_unique<const Sweep>(thin_sweep(data_->frames.load(index), base_));
-    ++decoded_;
+    ++cache_->decoded;
   });
   return *slot.sweep;
 }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "core/frame_store.hpp"
 #include "core/voxel_grid.hpp"
 
 namespace insalign {
@@ -78,16 +79,20 @@ bool sweep_covered(const PoseStream& poses, const Sweep& sweep, double time_offs
   return poses.covers(t + lo - margin_s) && poses.covers(t + hi + margin_s);
 }
 
-DriveFrames drive_frames(const Dataset& data, const FramesConfig& config, double time_offset_s, double margin_s) {
+DriveFrames drive_frames(const FrameStore& store, double time_offset_s, double margin_s) {
   DriveFrames out;
-  if (data.poses.empty()) return out;
-  const std::vector<FrameInfo>& infos = data.frames.frames;
-  const double period = sweep_period_s(infos, config);
+  const PoseStream& poses = store.poses();
+  if (poses.empty()) return out;
+  const FramesConfig& config = store.frames_config();
+  const std::vector<FrameInfo>& infos = store.data().frames.frames;
+  const double period = store.sweep_period_s();
   for (std::size_t i = 0; i < infos.size(); ++i) {
-    if (!sweep_covered(data.poses, infos[i].t_end_s, period, time_offset_s, margin_s)) continue;
+    const double t_ins = infos[i].t_end_s + time_offset_s;
+    if (!sweep_covered(poses, infos[i].t_end_s, period, time_offset_s, margin_s)) continue;
+    if (store.excluded(t_ins - 1.1 * period - margin_s, t_ins + margin_s)) continue;
     out.index.push_back(i);
     out.t_end_s.push_back(infos[i].t_end_s);
-    out.T_world_ins.push_back(data.poses.T_world_ins(infos[i].t_end_s + time_offset_s));
+    out.T_world_ins.push_back(poses.T_world_ins(t_ins));
   }
   out.motion_m.assign(out.size(), 0.0);
   for (std::size_t k = 1; k < out.size(); ++k) {

@@ -89,8 +89,10 @@ struct DriveFrames {
   std::size_t moving = 0;            ///< frames that moved since the previous one
   std::size_t size() const { return index.size(); }
 };
-DriveFrames drive_frames(const Dataset& data, const FramesConfig& config, double time_offset_s = 0.0,
-                         double margin_s = 0.0);
+class FrameStore;
+/// Over the store's poses (possibly corrected), leaving out frames whose sweep touches one of
+/// its excluded INS spans.
+DriveFrames drive_frames(const FrameStore& store, double time_offset_s = 0.0, double margin_s = 0.0);
 
 /// Positions (into `frames`) of up to n frames at the centres of n equal slices of the motion
 /// measure between positions first and last (inclusive; default: all), without repeats.

@@ -179,7 +179,7 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
     result.explanation = "init trusted as given (trust_init): not checked against the data";
     return result;
   }
-  const DriveFrames drive = drive_frames(store.data(), store.frames_config());
+  const DriveFrames drive = drive_frames(store);
   if (drive.size() < 4) {
     return cannot_start(T_ins_lidar_init, "fewer than 4 LiDAR frames lie inside the pose file's time span; no "
                                           "degree of freedom of the extrinsic can be determined", t0);

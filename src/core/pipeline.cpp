@@ -65,7 +65,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   CalibrationResult r;
 
   // 0. Can this drive determine anything? Decided from the poses alone, before loading sweeps.
-  r.motion = check_motion(data.poses, data.frames.frames, config.motion);
+  r.motion = check_motion(store.poses(), data.frames.frames, config.motion);
   if (!r.motion.ok) throw UnobservableError(r.motion.explanation);
 
   // 1. Start: from the data, or the given initial guess checked against the data.

@@ -377,7 +377,7 @@ PlaneThicknessConfig plane_thickness_config(const RefineConfig& c) {
 std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,
                                        double margin_s) {
   const DriveFrames drive =
-      drive_frames(store.data(), store.frames_config(), time_offset_s, margin_s + kJacobianLook_s);
+      drive_frames(store, time_offset_s, margin_s + kJacobianLook_s);
   if (drive.size() == 0) return {};
   const double total = drive.motion_m.back();
   const std::size_t by_motion = static_cast<std::size_t>(total / std::max(config.min_motion_m, 1e-6)) + 1;

@@ -245,7 +245,7 @@ PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observa
 }
 
 FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config) {
-  const DriveFrames drive = drive_frames(store.data(), store.frames_config());
+  const DriveFrames drive = drive_frames(store);
   return spread_groups(drive, store.frames_config(), config.groups, config.frames_per_group);
 }
 

@@ -8,7 +8,7 @@
 namespace insalign {
 
 std::vector<std::size_t> spread_frames(const FrameStore& store, std::size_t n, double time_offset_s) {
-  const DriveFrames drive = drive_frames(store.data(), store.frames_config(), time_offset_s);
+  const DriveFrames drive = drive_frames(store, time_offset_s);
   std::vector<std::size_t> out;
   for (std::size_t k : spread_over_motion(drive, n)) out.push_back(drive.index[k]);
   return out;

@@ -16,7 +16,7 @@ std::string fmt_m(double v) { return fmt::format("{:+.3f} m", v); }
 
 // The covered frames of the drive at the time offset, with their INS poses.
 DriveFrames covered_frames(const FrameStore& store, double time_offset_s) {
-  return drive_frames(store.data(), store.frames_config(), time_offset_s);
+  return drive_frames(store, time_offset_s);
 }
 
 // ---- Fiducials ---------------------------------------------------------------------------
