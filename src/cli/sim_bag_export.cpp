@@ -120,7 +120,7 @@ struct Message {
 class InsWriter {
  public:
   InsWriter(BagWriter& w, InsMessage kind, MessageEncoding enc, const io::LocalEnu& enu, const Vec3& p_first)
-      : w_(w), kind_(kind), enc_(enc), enu_(enu), p_first_(p_first) {
+      : kind_(kind), enc_(enc), enu_(enu), p_first_(p_first) {
     switch (kind) {
       case InsMessage::kInspva:
         a_ = w.add_topic(make_topic("/novatel/oem7/inspva", "novatel_oem7_msgs/INSPVA", enc));
@@ -237,7 +237,6 @@ class InsWriter {
     return out;
   }
 
-  BagWriter& w_;
   InsMessage kind_;
   MessageEncoding enc_;
   const io::LocalEnu& enu_;
