@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cli/sim_bag_export.hpp"
+#include "core/errors.hpp"
 #include "core/pipeline.hpp"
 #include "io/bag_dataset.hpp"
 #include "io/dataset.hpp"
@@ -20,6 +21,7 @@
 #include "io/fiducials.hpp"
 #include "io/pcd.hpp"
 #include "io/poses.hpp"
+#include "io/read_file.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign {
@@ -165,6 +167,55 @@ TEST(BagEndToEnd, EveryFormatConventionAndInsMessageGivesThePcdFoldersData) {
       EXPECT_EQ(bag.lidars[0].ins_quality.size(), run.ins_topic ? 0u : bag.lidars[0].poses.size());
     }
   }
+}
+
+// A rig: one topic per LiDAR (named as its folder would be), each on its own clock, same poses.
+TEST(BagEndToEnd, RigLidarsAreTopicsWithTheirOwnClocks) {
+  sim::SimConfig c;
+  c.seed = 8;
+  c.duration_s = 1.5;
+  c.azimuth_step_deg = 2.0;
+  c.rig = "top:vlp16,left:vlp16@left";
+  const sim::World world = sim::build_world(c);
+  ASSERT_EQ(world.lidars.size(), 2u);
+  const fs::path dir = fresh_dir("rig");
+  cli::SimBagOptions o;
+  o.format = BagFormat::kRos1;
+  o.lidar_convention = LidarConvention::kOuster;
+  o.ins_message = InsMessage::kOdometry;
+  const cli::SimBagResult written = cli::write_sim_bag(world, o, dir);
+  io::BagOptions b;
+  b.path = written.bag;
+  EXPECT_NE(std::string([&] {
+              try {
+                io::load_bag(b);
+              } catch (const InputError& e) {
+                return std::string(e.what());
+              }
+              return std::string();
+            }())
+                .find("candidates: /top (15 msgs), /left (15 msgs)"),
+            std::string::npos);
+  b.lidar_topics = {"/top", "/left"};
+  const io::BagDatasets bag = io::load_bag(b);
+  EXPECT_EQ(bag.lidar_names, (std::vector<std::string>{"top", "left"}));
+  for (std::size_t j = 0; j < 2; ++j) {
+    SCOPED_TRACE(j);
+    const Dataset& d = bag.lidars[j];
+    ASSERT_EQ(d.frames.frames.size(), world.lidars[j].frame_times_s.size());
+    for (std::size_t k : {std::size_t{0}, d.frames.frames.size() - 1}) {
+      const Sweep truth = sim::render_lidar_sweep(world, j, k), got = d.frames.load(k);
+      ASSERT_EQ(truth.size(), got.size());
+      EXPECT_NEAR(truth.t_end_s, got.t_end_s, 1e-6);
+      EXPECT_NEAR(truth.t_end_s, d.frames.frames[k].t_end_s, 1e-6);
+      for (std::size_t i = 0; i < got.size(); i += 97) EXPECT_LE((truth.p_lidar[i] - got.p_lidar[i]).norm(), 1e-6f);
+    }
+  }
+  EXPECT_EQ(bag.lidars[0].poses.size(), bag.lidars[1].poses.size());
+  const nlohmann::json gt = nlohmann::json::parse(io::read_file(dir / "ground_truth.json"));
+  EXPECT_EQ(gt["lidars"]["left"]["topic"], "/left");
+  EXPECT_NEAR(gt["lidars"]["left"]["time_offset_s"].get<double>(), world.lidars[1].time_offset_s, 1e-12);
+  EXPECT_TRUE(fs::exists(dir / "init-extrinsic-left.json"));
 }
 
 // Calibration from the PCD folder and from recordings of the same drive: the same answer.

@@ -343,13 +343,23 @@ nlohmann::json bag_ground_truth(const sim::World& world, const SimBagOptions& o,
   if (!j.contains("time_offset_s")) j["time_offset_s"] = world.config.time_offset_s;
   j["frames"] = r.frames;
   j["points"] = r.points;
+  // Every LiDAR by its name (CONVENTIONS "Rigs": the topic's), in the message's ins frame.
   nlohmann::json lidars = nlohmann::json::object();
   for (std::size_t k = 0; k < world.lidars.size(); ++k) {
+    const sim::SimLidar& l = world.lidars[k];
     const std::string topic = lidar_topic(world, k, o.lidar_convention);
+    const Iso3 T_l = T_msg_sim * l.T_ins_lidar_true;
+    const Vec3 rpy_l = rpy_from_rotation(T_l.linear()) * kDegPerRad;
     lidars[io::lidar_name(topic)] = {{"topic", topic},
-                                    {"T_ins_lidar", io::transform_to_json(T_msg_sim * world.lidars[k].T_ins_lidar_true)},
-                                    {"time_offset_s", world.lidars[k].time_offset_s}};
+                                    {"T_ins_lidar", io::transform_to_json(T_l)},
+                                    {"translation_m", {T_l.translation().x(), T_l.translation().y(), T_l.translation().z()}},
+                                    {"rpy_deg", {rpy_l.x(), rpy_l.y(), rpy_l.z()}},
+                                    {"time_offset_s", l.time_offset_s},
+                                    {"model", l.model.name},
+                                    {"frames", l.frame_times_s.size()},
+                                    {"T_ins_lidar_init", io::transform_to_json(T_msg_sim * l.T_ins_lidar_init)}};
   }
+  if (world.lidars.size() > 1) j["lidars"] = lidars;
   const char* formats[] = {"ros1", "mcap", "db3"};
   j["bag"] = {{"file", r.bag.filename().string()},
               {"format", formats[static_cast<int>(o.format)]},
@@ -416,6 +426,10 @@ SimBagResult write_sim_bag(const sim::World& world, const SimBagOptions& o, cons
   // Side files as for a PCD folder, in the message's ins frame.
   const Iso3 T_msg_sim = T_sim_msg.inverse();
   io::write_opencalib_extrinsic(out_dir / "init-extrinsic.json", T_msg_sim * world.T_ins_lidar_init);
+  for (std::size_t k = 0; world.lidars.size() > 1 && k < world.lidars.size(); ++k) {  // a rig: one per LiDAR
+    const std::string name = io::lidar_name(lidar_topic(world, k, o.lidar_convention));
+    io::write_opencalib_extrinsic(out_dir / ("init-extrinsic-" + name + ".json"), T_msg_sim * world.lidars[k].T_ins_lidar_init);
+  }
   const bool geodetic = o.ins_message == InsMessage::kInspva || o.ins_message == InsMessage::kNavSatFixImu;
   const Vec3 p_first = (sim::dense_reported_poses(world, o.ins_rate_hz).front().T_world_ins * T_sim_msg).translation();
   if (geodetic) {

@@ -19,8 +19,9 @@
 // simulator's world shifted by that pose, as the PCD folder's poses are once recentred.
 //
 // Into out_dir: the recording (drive.bag, drive.mcap, or the rosbag2 folder drive/),
-// ground_truth.json (T_ins_lidar for the message's ins frame), init-extrinsic.json, fiducials.txt
-// (geodetic, "# wgs84", for inspva and navsatfix-imu).
+// ground_truth.json (T_ins_lidar for the message's ins frame; a rig: "lidars" by name as well),
+// init-extrinsic.json (a rig: also init-extrinsic-<name>.json), fiducials.txt (geodetic,
+// "# wgs84", for inspva and navsatfix-imu). A rig's LiDARs are topics /<name>.
 #pragma once
 
 #include <cstddef>
