@@ -92,6 +92,69 @@ std::vector<MotionPair> register_pairs(const std::vector<std::pair<const InitFra
   return out;
 }
 
+namespace {
+
+// (yaw, t_xy) by linear least squares in (tx, ty, cos, sin) over the inlier pairs, or (cos, sin)
+// alone without the lever arm; then, with the yaw on the circle, the lever arm again alone.
+void solve_inliers(const std::vector<MotionPair>& pairs, double tz_m, bool with_lever_arm, PlanarHandEyeResult& r) {
+  const int n_unknown = with_lever_arm ? 4 : 2;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n_unknown, n_unknown);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(n_unknown);
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    if (!r.inlier[i]) continue;
+    const Mat3 R_a = pairs[i].T_insl0_insl1.linear();
+    const Vec3 t_a = pairs[i].T_insl0_insl1.translation();
+    const Vec3 t_b = pairs[i].T_lev0_lev1.translation();
+    Eigen::Matrix<double, 2, 4> J;  // two rows (x, y) per pair
+    J << R_a(0, 0) - 1.0, R_a(0, 1), -t_b.x(), t_b.y(), R_a(1, 0), R_a(1, 1) - 1.0, -t_b.y(), -t_b.x();
+    const Eigen::Vector2d rhs(-t_a.x() - R_a(0, 2) * tz_m, -t_a.y() - R_a(1, 2) * tz_m);
+    const Eigen::MatrixXd Ji = with_lever_arm ? Eigen::MatrixXd(J) : Eigen::MatrixXd(J.rightCols<2>());
+    H += Ji.transpose() * Ji;
+    g += Ji.transpose() * rhs;
+  }
+  const Eigen::VectorXd x = H.ldlt().solve(g);
+  r.yaw_rad = std::atan2(x(n_unknown - 1), x(n_unknown - 2));
+  r.t_xy_m = Eigen::Vector2d::Zero();
+  if (!with_lever_arm) return;
+  Eigen::Matrix2d H2 = Eigen::Matrix2d::Zero();
+  Eigen::Vector2d g2 = Eigen::Vector2d::Zero();
+  const Eigen::Matrix2d Rz2 = rot_z(r.yaw_rad).topLeftCorner<2, 2>();
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    if (!r.inlier[i]) continue;
+    const Mat3 R_a = pairs[i].T_insl0_insl1.linear();
+    const Eigen::Matrix2d J2 = R_a.topLeftCorner<2, 2>() - Eigen::Matrix2d::Identity();
+    const Eigen::Vector2d rhs = Rz2 * pairs[i].T_lev0_lev1.translation().head<2>() -
+                                pairs[i].T_insl0_insl1.translation().head<2>() - R_a.topRightCorner<2, 1>() * tz_m;
+    H2 += J2.transpose() * J2;
+    g2 += J2.transpose() * rhs;
+  }
+  r.t_xy_m = H2.ldlt().solve(g2);
+}
+
+// Horizontal residual of pair i under the current solution.
+double pair_residual(const MotionPair& pair, double tz_m, const PlanarHandEyeResult& r) {
+  const Vec3 t_insl_lev(r.t_xy_m.x(), r.t_xy_m.y(), tz_m);
+  const Vec3 lhs = pair.T_insl0_insl1.linear() * t_insl_lev + pair.T_insl0_insl1.translation();
+  const Vec3 rhs = rot_z(r.yaw_rad) * pair.T_lev0_lev1.translation() + t_insl_lev;
+  return (lhs - rhs).head<2>().norm();
+}
+
+// Drops pairs far off the consensus (gross registration failures); true if any was dropped.
+bool drop_outliers(const std::vector<MotionPair>& pairs, double tz_m, double floor_m, PlanarHandEyeResult& r) {
+  std::vector<double> res;
+  for (std::size_t i = 0; i < pairs.size(); ++i)
+    if (r.inlier[i]) res.push_back(pair_residual(pairs[i], tz_m, r));
+  std::nth_element(res.begin(), res.begin() + static_cast<long>(res.size() / 2), res.end());
+  const double gate = std::max(floor_m, 3.0 * res[res.size() / 2]);
+  bool changed = false;
+  for (std::size_t i = 0; i < pairs.size(); ++i) {
+    if (r.inlier[i] && pair_residual(pairs[i], tz_m, r) > gate) r.inlier[i] = false, changed = true;
+  }
+  return changed;
+}
+
+}  // namespace
+
 PlanarHandEyeResult solve_planar_hand_eye(const std::vector<MotionPair>& pairs, double tz_m,
                                           const HandEyeConfig& config) {
   PlanarHandEyeResult result;
@@ -102,53 +165,6 @@ PlanarHandEyeResult solve_planar_hand_eye(const std::vector<MotionPair>& pairs, 
     const double turn_b = yaw_of(pairs[i].T_lev0_lev1.linear());
     result.inlier[i] = std::abs(wrap_pi(turn_a - turn_b)) * kDegPerRad <= config.max_angle_mismatch_deg;
   }
-  auto solve = [&](bool with_lever_arm) {
-    // Unknowns (tx, ty, cos, sin) or (cos, sin); two rows (x, y) per pair.
-    const int n_unknown = with_lever_arm ? 4 : 2;
-    Eigen::MatrixXd H = Eigen::MatrixXd::Zero(n_unknown, n_unknown);
-    Eigen::VectorXd g = Eigen::VectorXd::Zero(n_unknown);
-    for (std::size_t i = 0; i < pairs.size(); ++i) {
-      if (!result.inlier[i]) continue;
-      const Mat3 R_a = pairs[i].T_insl0_insl1.linear();
-      const Vec3 t_a = pairs[i].T_insl0_insl1.translation();
-      const Vec3 t_b = pairs[i].T_lev0_lev1.translation();
-      Eigen::Matrix<double, 2, 4> J;
-      J << R_a(0, 0) - 1.0, R_a(0, 1), -t_b.x(), t_b.y(),
-           R_a(1, 0), R_a(1, 1) - 1.0, -t_b.y(), -t_b.x();
-      const Eigen::Vector2d rhs(-t_a.x() - R_a(0, 2) * tz_m, -t_a.y() - R_a(1, 2) * tz_m);
-      const Eigen::MatrixXd Ji = with_lever_arm ? Eigen::MatrixXd(J) : Eigen::MatrixXd(J.rightCols<2>());
-      H += Ji.transpose() * Ji;
-      g += Ji.transpose() * rhs;
-    }
-    const Eigen::VectorXd x = H.ldlt().solve(g);
-    const Eigen::Vector2d cs = x.tail<2>();
-    result.yaw_rad = std::atan2(cs.y(), cs.x());
-    result.t_xy_m = with_lever_arm ? Eigen::Vector2d(x.head<2>()) : Eigen::Vector2d::Zero();
-    // With the yaw normalised onto the circle, re-solve the lever arm alone.
-    if (with_lever_arm) {
-      Eigen::Matrix2d H2 = Eigen::Matrix2d::Zero();
-      Eigen::Vector2d g2 = Eigen::Vector2d::Zero();
-      const Eigen::Matrix2d Rz2 = rot_z(result.yaw_rad).topLeftCorner<2, 2>();
-      for (std::size_t i = 0; i < pairs.size(); ++i) {
-        if (!result.inlier[i]) continue;
-        const Mat3 R_a = pairs[i].T_insl0_insl1.linear();
-        const Vec3 t_a = pairs[i].T_insl0_insl1.translation();
-        const Eigen::Matrix2d J2 = R_a.topLeftCorner<2, 2>() - Eigen::Matrix2d::Identity();
-        const Eigen::Vector2d rhs = Rz2 * pairs[i].T_lev0_lev1.translation().head<2>() - t_a.head<2>() -
-                                    R_a.topRightCorner<2, 1>() * tz_m;
-        H2 += J2.transpose() * J2;
-        g2 += J2.transpose() * rhs;
-      }
-      result.t_xy_m = H2.ldlt().solve(g2);
-    }
-  };
-  auto residual = [&](std::size_t i) {
-    const Mat3 R_a = pairs[i].T_insl0_insl1.linear();
-    const Vec3 tX(result.t_xy_m.x(), result.t_xy_m.y(), tz_m);
-    const Vec3 lhs = R_a * tX + pairs[i].T_insl0_insl1.translation();
-    const Vec3 rhs = rot_z(result.yaw_rad) * pairs[i].T_lev0_lev1.translation() + tX;
-    return (lhs - rhs).head<2>().norm();
-  };
   const double min_turn_rad = config.min_pair_turn_deg * kRadPerDeg;
   for (int round = 0; round < 4; ++round) {
     int n_in = 0, n_turn = 0;
@@ -157,33 +173,15 @@ PlanarHandEyeResult solve_planar_hand_eye(const std::vector<MotionPair>& pairs, 
       ++n_in;
       n_turn += std::abs(yaw_of(pairs[i].T_insl0_insl1.linear())) >= min_turn_rad;
     }
-    if (n_in < 2) {
-      result.valid = false;
-      return result;
-    }
+    if (n_in < 2) return result;  // valid = false
     result.lever_arm_observed = n_turn >= 2;
-    solve(result.lever_arm_observed);
-    // Drop pairs far off the consensus (gross registration failures), then solve again.
-    std::vector<double> res;
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      if (result.inlier[i]) res.push_back(residual(i));
-    std::nth_element(res.begin(), res.begin() + static_cast<long>(res.size() / 2), res.end());
-    const double gate = std::max(config.max_residual_m, 3.0 * res[res.size() / 2]);
-    bool changed = false;
-    for (std::size_t i = 0; i < pairs.size(); ++i)
-      if (result.inlier[i] && residual(i) > gate) {
-        result.inlier[i] = false;
-        changed = true;
-      }
-    if (!changed) break;
+    solve_inliers(pairs, tz_m, result.lever_arm_observed, result);
+    if (!drop_outliers(pairs, tz_m, config.max_residual_m, result)) break;
   }
   double sum2 = 0.0;
   int n_in = 0;
   for (std::size_t i = 0; i < pairs.size(); ++i)
-    if (result.inlier[i]) {
-      sum2 += std::pow(residual(i), 2);
-      ++n_in;
-    }
+    if (result.inlier[i]) sum2 += std::pow(pair_residual(pairs[i], tz_m, result), 2), ++n_in;
   result.valid = n_in >= 2;
   result.rms_m = n_in > 0 ? std::sqrt(sum2 / n_in) : 0.0;
   return result;

@@ -30,6 +30,77 @@ constexpr const char* kAdvice =
 
 }  // namespace
 
+namespace {
+
+// Path length, turning and speed on a grid of speed_window_s over [t0, t1]: INS position and
+// heading noise between closely spaced poses would otherwise add up to metres and degrees on a
+// standstill.
+void measure_path(const PoseStream& poses, double t0, double t1, double window_s, MotionCheck& out) {
+  const std::size_t n_steps = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((t1 - t0) / window_s)));
+  Iso3 T_prev = poses.T_world_ins(t0);
+  double heading = 0.0, heading_min = 0.0, heading_max = 0.0, t_prev = t0;
+  for (std::size_t k = 1; k <= n_steps; ++k) {
+    const double t = (k == n_steps) ? t1 : t0 + double(k) * (t1 - t0) / double(n_steps);
+    const Iso3 T = poses.T_world_ins(t);
+    const double d = (T.translation() - T_prev.translation()).norm();
+    out.distance_m += d;
+    if (t - t_prev > 0) out.max_speed_mps = std::max(out.max_speed_mps, d / (t - t_prev));
+    const double dpsi = wrap_pi(heading_rad(T) - heading_rad(T_prev));
+    heading += dpsi;
+    out.heading_change_deg += std::abs(dpsi) * kDegPerRad;
+    heading_min = std::min(heading_min, heading), heading_max = std::max(heading_max, heading);
+    T_prev = T, t_prev = t;
+  }
+  out.heading_spread_deg = (heading_max - heading_min) * kDegPerRad;
+}
+
+// Lever-arm sensitivity over the frames (each frame weighs the same in the map): the map
+// disagreement of a lever-arm error d is (R_k - R_mean) d, whose mean square over the frames is
+// d^T (I - R_mean^T R_mean) d. Its smallest eigenvalue belongs to the vertical (never seen by
+// planar driving, stage 3); the next one is the worst horizontal direction.
+double lever_arm_sensitivity(const PoseStream& poses, const std::vector<FrameInfo>& frames) {
+  Mat3 R_mean = Mat3::Zero();
+  std::size_t n = 0;
+  for (const FrameInfo& f : frames) {
+    if (!poses.covers(f.t_end_s)) continue;
+    R_mean += poses.T_world_ins(f.t_end_s).linear();
+    ++n;
+  }
+  if (n == 0) return 0.0;
+  R_mean /= double(n);
+  const Mat3 info = Mat3::Identity() - R_mean.transpose() * R_mean;
+  const Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (info + info.transpose()));
+  return std::sqrt(std::max(eig.eigenvalues()(1), 0.0));
+}
+
+std::string explain(const MotionCheck& out, const MotionCheckConfig& config, bool moved, bool turned_enough) {
+  const std::string drive = distance_words(out.distance_m) + " over the " + duration_words(out.duration_s) + " of " +
+                            std::to_string(out.frames) + (out.frames == 1 ? " frame" : " frames");
+  if (!moved) {
+    return "the vehicle moved only " + drive + " (need at least " + distance_words(config.min_distance_m) +
+           "): it is practically standing still, so no part of the extrinsic is determined. A rotation error "
+           "shows only as a disagreement between views from places some metres apart, and the lever arm only "
+           "between views at different headings. " + std::string(kAdvice);
+  }
+  if (!turned_enough) {
+    return fmt::format(
+               "the vehicle drove {} but turned only {:.0f} deg in total (heading spread {:.0f} deg, lever-arm "
+               "sensitivity {:.2f}, need {:.0f} deg and {:.2f}). ",
+               drive, out.heading_change_deg, out.heading_spread_deg, out.lever_arm_sensitivity,
+               config.min_heading_change_deg, config.min_lever_arm_sensitivity) +
+           "With an almost constant heading the lever arm x, y is not determined (a lever-arm error moves every "
+           "point of the map alike, so the map stays sharp), nor the roll about the direction of travel; the "
+           "time offset trades against the lever arm along the direction of travel. Only pitch and yaw are seen, "
+           "through the distance driven. " + std::string(kAdvice);
+  }
+  return fmt::format("the drive determines roll, pitch, yaw and the lever arm x, y: {}, {:.0f} deg of turning, "
+                     "heading spread {:.0f} deg, lever-arm sensitivity {:.2f}. tz needs fiducials or "
+                     "--ins-height-m: planar driving never shows it.",
+                     drive, out.heading_change_deg, out.heading_spread_deg, out.lever_arm_sensitivity);
+}
+
+}  // namespace
+
 MotionCheck check_motion(const PoseStream& poses, const std::vector<FrameInfo>& frames,
                          const MotionCheckConfig& config) {
   MotionCheck out;
@@ -48,80 +119,15 @@ MotionCheck check_motion(const PoseStream& poses, const std::vector<FrameInfo>& 
     return out;
   }
   out.duration_s = t1 - t0;
-
-  // Path length, turning and speed on a grid of speed_window_s: INS position and heading noise
-  // between closely spaced poses would otherwise add up to metres and degrees on a standstill.
-  const double step = std::max(config.speed_window_s, 1e-3);
-  const std::size_t n_steps = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(out.duration_s / step)));
-  Iso3 T_prev = poses.T_world_ins(t0);
-  double heading = 0.0, heading_min = 0.0, heading_max = 0.0;
-  double t_prev = t0;
-  for (std::size_t k = 1; k <= n_steps; ++k) {
-    const double t = (k == n_steps) ? t1 : t0 + double(k) * out.duration_s / double(n_steps);
-    const Iso3 T = poses.T_world_ins(t);
-    const double d = (T.translation() - T_prev.translation()).norm();
-    out.distance_m += d;
-    if (t - t_prev > 0) out.max_speed_mps = std::max(out.max_speed_mps, d / (t - t_prev));
-    double dpsi = heading_rad(T) - heading_rad(T_prev);
-    dpsi = wrap_pi(dpsi);
-    heading += dpsi;
-    out.heading_change_deg += std::abs(dpsi) * kDegPerRad;
-    heading_min = std::min(heading_min, heading), heading_max = std::max(heading_max, heading);
-    T_prev = T, t_prev = t;
-  }
-  out.heading_spread_deg = (heading_max - heading_min) * kDegPerRad;
-
-  // Lever-arm sensitivity over the frames (each frame weighs the same in the map): the map
-  // disagreement of a lever-arm error d is (R_k - R_mean) d, whose mean square over the frames is
-  // d^T (I - R_mean^T R_mean) d. Its smallest eigenvalue belongs to the vertical (never seen by
-  // planar driving, stage 3); the next one is the worst horizontal direction.
-  Mat3 R_mean = Mat3::Zero();
-  std::size_t n_frames = 0;
-  for (const FrameInfo& f : frames) {
-    if (!poses.covers(f.t_end_s)) continue;
-    R_mean += poses.T_world_ins(f.t_end_s).linear();
-    ++n_frames;
-  }
-  if (n_frames > 0) {
-    R_mean /= double(n_frames);
-    const Mat3 info = Mat3::Identity() - R_mean.transpose() * R_mean;
-    const Eigen::SelfAdjointEigenSolver<Mat3> eig(0.5 * (info + info.transpose()));
-    out.lever_arm_sensitivity = std::sqrt(std::max(eig.eigenvalues()(1), 0.0));
-  }
-
+  measure_path(poses, t0, t1, std::max(config.speed_window_s, 1e-3), out);
+  out.lever_arm_sensitivity = lever_arm_sensitivity(poses, frames);
   const bool moved = out.distance_m >= config.min_distance_m;
   const bool turned = out.heading_change_deg >= config.min_heading_change_deg;
   const bool spread = out.lever_arm_sensitivity >= config.min_lever_arm_sensitivity;
   out.rotation_determined = moved && turned;
   out.lever_arm_xy_determined = moved && turned && spread;
   out.ok = out.rotation_determined && out.lever_arm_xy_determined;
-
-  const std::string frames_words = std::to_string(frames.size()) + (frames.size() == 1 ? " frame" : " frames");
-  const std::string drive = distance_words(out.distance_m) + " over the " + duration_words(out.duration_s) + " of " +
-                            frames_words;
-  if (!moved) {
-    out.explanation =
-        "the vehicle moved only " + drive + " (need at least " + distance_words(config.min_distance_m) +
-        "): it is practically standing still, so no part of the extrinsic is determined. A rotation error "
-        "shows only as a disagreement between views from places some metres apart, and the lever arm only "
-        "between views at different headings. " + std::string(kAdvice);
-  } else if (!turned || !spread) {
-    out.explanation =
-        "the vehicle drove " + drive + " but turned only " + fmt::format("{:.0f} deg", out.heading_change_deg) +
-        " in total (heading spread " + fmt::format("{:.0f} deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
-        fmt::format("{:.2f}", out.lever_arm_sensitivity) + ", need " + fmt::format("{:.0f} deg", config.min_heading_change_deg) +
-        " and " + fmt::format("{:.2f}", config.min_lever_arm_sensitivity) +
-        "). With an almost constant heading the lever arm x, y is not determined (a lever-arm error moves "
-        "every point of the map alike, so the map stays sharp), nor the roll about the direction of travel; "
-        "the time offset trades against the lever arm along the direction of travel. Only pitch and yaw are "
-        "seen, through the distance driven. " + std::string(kAdvice);
-  } else {
-    out.explanation = "the drive determines roll, pitch, yaw and the lever arm x, y: " + drive + ", " +
-                      fmt::format("{:.0f} deg", out.heading_change_deg) + " of turning, heading spread " +
-                      fmt::format("{:.0f} deg", out.heading_spread_deg) + ", lever-arm sensitivity " +
-                      fmt::format("{:.2f}", out.lever_arm_sensitivity) +
-                      ". tz needs fiducials or --ins-height-m: planar driving never shows it.";
-  }
+  out.explanation = explain(out, config, moved, turned && spread);
   return out;
 }
 
