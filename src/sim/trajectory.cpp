@@ -24,6 +24,27 @@ double wrap_pi(double a) {
   return a;
 }
 
+// One loop of the lemniscate x = A sin u, y = B/2 sin 2u, resampled every kPathStepM of arc length.
+std::vector<Vec2> figure8_table(double A, double B, double& loop_length_m) {
+  const int n = 40000;
+  std::vector<double> s_of(n + 1, 0.0);
+  std::vector<Vec2> fine(n + 1);
+  for (int i = 0; i <= n; ++i) {
+    const double u = 2 * kPi * i / n;
+    fine[i] = Vec2(A * std::sin(u), 0.5 * B * std::sin(2 * u));
+    if (i > 0) s_of[i] = s_of[i - 1] + (fine[i] - fine[i - 1]).norm();
+  }
+  loop_length_m = s_of[n];
+  std::vector<Vec2> xy;
+  for (double s = 0.0; s < loop_length_m; s += kPathStepM) {
+    const auto it = std::upper_bound(s_of.begin(), s_of.end(), s);
+    const std::size_t i = std::clamp<std::size_t>(it - s_of.begin(), 1, n);
+    const double f = (s - s_of[i - 1]) / std::max(1e-12, s_of[i] - s_of[i - 1]);
+    xy.push_back(fine[i - 1] + f * (fine[i] - fine[i - 1]));
+  }
+  return xy;
+}
+
 }  // namespace
 
 Iso3 vehicle_from_ins(InsAxes axes) {
@@ -39,84 +60,75 @@ Trajectory::Trajectory(const SimConfig& config, Rng& rng) : kind_(config.traject
   const double slope = rng.uniform(0.0, slope_max), slope_dir = rng.uniform(-kPi, kPi);
   ground_ = {0.0, slope * std::cos(slope_dir), slope * std::sin(slope_dir)};
   const double yaw0 = rng.uniform(-kPi, kPi);
-  const Eigen::Rotation2Dd rot(yaw0);
-
   if (kind_ == TrajectoryKind::kRecorded) {
-    const auto& in = config.recorded_trajectory;
-    if (in.size() < 2) throw std::invalid_argument("recorded trajectory needs at least 2 poses");
-    const double t0 = in.front().t_s;
-    const Vec3 p0 = in.front().T_world_ins.translation();
-    // Light smoothing of positions (5-sample moving average) removes the INS's own jitter.
-    std::vector<Vec3> p(in.size());
-    for (std::size_t i = 0; i < in.size(); ++i) {
-      // Symmetric window, shrinking at the ends so the first and last poses stay put.
-      const std::size_t half = std::min<std::size_t>({2, i, in.size() - 1 - i});
-      Vec3 sum = Vec3::Zero();
-      int n = 0;
-      for (std::size_t j = i - half; j <= i + half; ++j, ++n) sum += in[j].T_world_ins.translation() - p0;
-      p[i] = sum / n;
-    }
-    // Which body axis points forward: the mean direction of motion in the body frame.
-    Vec3 v_body = Vec3::Zero();
-    for (std::size_t i = 1; i + 1 < in.size(); ++i) {
-      const Vec3 dp = p[i + 1] - p[i - 1];
-      const double dt = in[i + 1].t_s - in[i - 1].t_s;
-      if (dt > 0 && dp.norm() / dt > 0.5) v_body += in[i].T_world_ins.linear().transpose() * dp.normalized();
-    }
-    Mat3 R_ins_vehicle = Mat3::Identity();
-    if (v_body.head<2>().norm() > 1e-6) {
-      Vec3 fwd = Vec3::Zero();
-      int axis = std::abs(v_body.x()) >= std::abs(v_body.y()) ? 0 : 1;
-      fwd[axis] = v_body[axis] > 0 ? 1.0 : -1.0;
-      const Vec3 up = Vec3::UnitZ();
-      R_ins_vehicle.col(0) = fwd;
-      R_ins_vehicle.col(1) = up.cross(fwd);
-      R_ins_vehicle.col(2) = up;
-    }
-    std::vector<StampedPose> vehicle;
-    for (std::size_t i = 0; i < in.size(); ++i) {
-      Iso3 T = Iso3::Identity();
-      T.linear() = in[i].T_world_ins.linear() * R_ins_vehicle;
-      T.translation() = p[i];
-      vehicle.push_back({in[i].t_s - t0, T});
-      loop_xy_.push_back(p[i].head<2>());
-    }
-    recorded_ = PoseStream(std::move(vehicle));
-    duration_s_ = recorded_.t_end();
-    // Ground: the plane through the drive, lowered by the INS height.
-    Eigen::MatrixXd A(in.size(), 3);
-    Eigen::VectorXd b(in.size());
-    for (std::size_t i = 0; i < in.size(); ++i) {
-      A.row(i) << 1.0, p[i].x(), p[i].y();
-      b(i) = p[i].z() - ins_height_m_;
-    }
-    const Eigen::Vector3d g = A.colPivHouseholderQr().solve(b);
-    ground_ = {g(0), g(1), g(2)};
+    init_recorded(config.recorded_trajectory);
     return;
   }
+  init_analytic(config, rng, yaw0);
+}
 
+void Trajectory::init_recorded(const std::vector<StampedPose>& in) {
+  if (in.size() < 2) throw std::invalid_argument("recorded trajectory needs at least 2 poses");
+  const double t0 = in.front().t_s;
+  const Vec3 p0 = in.front().T_world_ins.translation();
+  // Light smoothing of positions (5-sample moving average) removes the INS's own jitter.
+  std::vector<Vec3> p(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    // Symmetric window, shrinking at the ends so the first and last poses stay put.
+    const std::size_t half = std::min<std::size_t>({2, i, in.size() - 1 - i});
+    Vec3 sum = Vec3::Zero();
+    int n = 0;
+    for (std::size_t j = i - half; j <= i + half; ++j, ++n) sum += in[j].T_world_ins.translation() - p0;
+    p[i] = sum / n;
+  }
+  // Which body axis points forward: the mean direction of motion in the body frame.
+  Vec3 v_body = Vec3::Zero();
+  for (std::size_t i = 1; i + 1 < in.size(); ++i) {
+    const Vec3 dp = p[i + 1] - p[i - 1];
+    const double dt = in[i + 1].t_s - in[i - 1].t_s;
+    if (dt > 0 && dp.norm() / dt > 0.5) v_body += in[i].T_world_ins.linear().transpose() * dp.normalized();
+  }
+  Mat3 R_ins_vehicle = Mat3::Identity();
+  if (v_body.head<2>().norm() > 1e-6) {
+    Vec3 fwd = Vec3::Zero();
+    int axis = std::abs(v_body.x()) >= std::abs(v_body.y()) ? 0 : 1;
+    fwd[axis] = v_body[axis] > 0 ? 1.0 : -1.0;
+    const Vec3 up = Vec3::UnitZ();
+    R_ins_vehicle.col(0) = fwd;
+    R_ins_vehicle.col(1) = up.cross(fwd);
+    R_ins_vehicle.col(2) = up;
+  }
+  std::vector<StampedPose> vehicle;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    Iso3 T = Iso3::Identity();
+    T.linear() = in[i].T_world_ins.linear() * R_ins_vehicle;
+    T.translation() = p[i];
+    vehicle.push_back({in[i].t_s - t0, T});
+    loop_xy_.push_back(p[i].head<2>());
+  }
+  recorded_ = PoseStream(std::move(vehicle));
+  duration_s_ = recorded_.t_end();
+  // Ground: the plane through the drive, lowered by the INS height.
+  Eigen::MatrixXd A(in.size(), 3);
+  Eigen::VectorXd b(in.size());
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    A.row(i) << 1.0, p[i].x(), p[i].y();
+    b(i) = p[i].z() - ins_height_m_;
+  }
+  const Eigen::Vector3d g = A.colPivHouseholderQr().solve(b);
+  ground_ = {g(0), g(1), g(2)};
+}
+
+void Trajectory::init_analytic(const SimConfig& config, Rng& rng, double yaw0) {
+  const Eigen::Rotation2Dd rot(yaw0);
   // Analytic paths as a table of one loop, centred on the origin and rotated by yaw0.
   std::vector<Vec2> xy;
   int loops = 1;
   if (kind_ == TrajectoryKind::kFigure8) {
     // Lemniscate of Gerono x = A sin u, y = B/2 sin 2u: curvature smooth, zero at the crossing,
     // largest (A / B^2, ~15 m radius) at the tips.
-    const double A = rng.uniform(27.0, 33.0), B = 0.7 * A;
-    const int n = 40000;
-    std::vector<double> s_of(n + 1, 0.0);
-    std::vector<Vec2> fine(n + 1);
-    for (int i = 0; i <= n; ++i) {
-      const double u = 2 * kPi * i / n;
-      fine[i] = Vec2(A * std::sin(u), 0.5 * B * std::sin(2 * u));
-      if (i > 0) s_of[i] = s_of[i - 1] + (fine[i] - fine[i - 1]).norm();
-    }
-    loop_length_m_ = s_of[n];
-    for (double s = 0.0; s < loop_length_m_; s += kPathStepM) {
-      const auto it = std::upper_bound(s_of.begin(), s_of.end(), s);
-      const std::size_t i = std::clamp<std::size_t>(it - s_of.begin(), 1, n);
-      const double f = (s - s_of[i - 1]) / std::max(1e-12, s_of[i] - s_of[i - 1]);
-      xy.push_back(fine[i - 1] + f * (fine[i] - fine[i - 1]));
-    }
+    const double A = rng.uniform(27.0, 33.0);
+    xy = figure8_table(A, 0.7 * A, loop_length_m_);
     loops = std::max(1, config.figure8_loops);
   } else if (kind_ == TrajectoryKind::kStraight) {
     loop_length_m_ = kStraightLengthM;

@@ -29,6 +29,8 @@ class Trajectory {
   struct PathSample {
     double x, y, heading_rad, curvature_per_m;
   };
+  void init_recorded(const std::vector<StampedPose>& in);
+  void init_analytic(const SimConfig& config, Rng& rng, double yaw0);
   PathSample path_at(double s_m) const;
   void speed_at(double tau_s, double& s_m, double& v_mps, double& a_mps2) const;
 
