@@ -42,19 +42,30 @@ State apply(const State& s, const Vec7& delta) {
 // The Jacobian's finite differences look this much beyond a sweep's time span.
 constexpr double kJacobianLook_s = 0.006;
 
-// The reduced frames and everything every evaluation needs about them.
+// Every LiDAR's part of a joint step (parameters [7 l, 7 l + 7) are LiDAR l's).
+using States = std::vector<State>;
+States apply_step(const States& s, const Eigen::VectorXd& delta) {
+  States out = s;
+  for (std::size_t l = 0; l < s.size(); ++l) out[l] = apply(s[l], delta.segment<kRefineParams>(kRefineParams * l));
+  return out;
+}
+
+// The reduced frames of every LiDAR (LiDAR by LiDAR) and everything every evaluation needs.
 struct Problem {
-  const PoseStream* poses = nullptr;
+  std::vector<const PoseStream*> poses;  // per LiDAR
   std::vector<Sweep> frames;
+  std::vector<std::uint16_t> lidar_of;   // per frame: its LiDAR
   std::vector<std::size_t> first;  // frames[f] occupies points [first[f], first[f+1]) of a map
   std::vector<std::uint16_t> frame_of;
+  std::size_t lidars() const { return poses.size(); }
   std::size_t points() const { return first.back(); }
 };
 
-Problem make_problem(const PoseStream& poses, std::vector<Sweep> frames) {
+Problem make_problem(std::vector<const PoseStream*> poses, std::vector<Sweep> frames, std::vector<std::uint16_t> lidar_of) {
   Problem p;
-  p.poses = &poses;
+  p.poses = std::move(poses);
   p.frames = std::move(frames);
+  p.lidar_of = std::move(lidar_of);
   p.first.assign(1, 0);
   for (const Sweep& s : p.frames) p.first.push_back(p.first.back() + s.size());
   p.frame_of.resize(p.points());
@@ -64,20 +75,46 @@ Problem make_problem(const PoseStream& poses, std::vector<Sweep> frames) {
   return p;
 }
 
-// The stitched map: every point deskewed through the INS poses at its own time.
-void place_all(const Problem& p, const State& s, std::vector<Vec3f>& p_world) {
+// The stitched map: every point deskewed through the INS poses at its own time, each frame
+// through its LiDAR's extrinsic and offset.
+void place_all(const Problem& p, const States& s, std::vector<Vec3f>& p_world) {
   p_world.resize(p.points());
-  PlaceOptions options;
-  options.time_offset_s = s.time_offset_s;
   tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
-    const std::vector<Vec3f> w = sweep_to_world(p.frames[f], *p.poses, s.T_ins_lidar, options);
+    const std::size_t l = p.lidar_of[f];
+    PlaceOptions options;
+    options.time_offset_s = s[l].time_offset_s;
+    const std::vector<Vec3f> w = sweep_to_world(p.frames[f], *p.poses[l], s[l].T_ins_lidar, options);
     std::copy(w.begin(), w.end(), p_world.begin() + static_cast<std::ptrdiff_t>(p.first[f]));
   });
 }
 
-double occupancy(const Problem& p, const State& s, double voxel_m, std::vector<Vec3f>& scratch) {
+double occupancy(const Problem& p, const States& s, double voxel_m, std::vector<Vec3f>& scratch) {
   place_all(p, s, scratch);
   return staggered_occupancy(scratch, voxel_m);
+}
+
+// Occupied voxels of each LiDAR's own part of the map (its frames are contiguous).
+std::vector<std::size_t> occupied_per_lidar(const Problem& p, const States& s, double voxel_m) {
+  std::vector<Vec3f> map;
+  place_all(p, s, map);
+  std::vector<std::size_t> out(p.lidars(), 0);
+  for (std::size_t l = 0; l < p.lidars(); ++l) {
+    std::size_t begin = p.points(), end = 0;
+    for (std::size_t f = 0; f < p.frames.size(); ++f) {
+      if (p.lidar_of[f] != l) continue;
+      begin = std::min(begin, p.first[f]);
+      end = std::max(end, p.first[f + 1]);
+    }
+    if (begin >= end) continue;
+    if (begin == 0 && end == map.size()) {
+      out[l] = count_occupied_voxels(map, voxel_m);
+    } else {
+      out[l] = count_occupied_voxels(std::vector<Vec3f>(map.begin() + static_cast<std::ptrdiff_t>(begin),
+                                                        map.begin() + static_cast<std::ptrdiff_t>(end)),
+                                     voxel_m);
+    }
+  }
+  return out;
 }
 
 // INS pose and its velocity at knots over a sweep, for the Jacobians (values come from
@@ -115,18 +152,49 @@ Knots make_knots(const Sweep& sweep, const PoseStream& poses, double time_offset
 }
 
 struct NormalEquations {
-  Mat7 H = Mat7::Zero();
-  Vec7 g = Vec7::Zero();
+  std::size_t lidars = 1;
+  std::vector<Mat7> H;    // lidars x lidars blocks, row-major; only a <= b kept (diagonal: upper triangle)
+  std::vector<Vec7> g;    // per LiDAR
   double cost = 0.0;      // sum of robust-weighted squared distances
   double sq = 0.0;        // sum of squared distances (unweighted)
   std::size_t n = 0;
+  std::vector<double> sq_lidar;      // per LiDAR: its points' squared distances
+  std::vector<std::size_t> n_lidar;  // per LiDAR: its points on planes
+  std::size_t shared_planes = 0;     // planes with points of more than one LiDAR
+  explicit NormalEquations(std::size_t n_lidars = 1)
+      : lidars(n_lidars), H(n_lidars * n_lidars, Mat7::Zero()), g(n_lidars, Vec7::Zero()), sq_lidar(n_lidars, 0.0),
+        n_lidar(n_lidars, 0) {}
+  Mat7& block(std::size_t a, std::size_t b) { return H[a * lidars + b]; }
+  const Mat7& block(std::size_t a, std::size_t b) const { return H[a * lidars + b]; }
   NormalEquations& operator+=(const NormalEquations& o) {
-    H += o.H;
-    g += o.g;
+    for (std::size_t i = 0; i < H.size(); ++i) H[i] += o.H[i];
+    for (std::size_t l = 0; l < lidars; ++l) {
+      g[l] += o.g[l];
+      sq_lidar[l] += o.sq_lidar[l];
+      n_lidar[l] += o.n_lidar[l];
+    }
     cost += o.cost;
     sq += o.sq;
     n += o.n;
+    shared_planes += o.shared_planes;
     return *this;
+  }
+  // The whole symmetric system over the 7N parameters.
+  Eigen::MatrixXd hessian() const {
+    Eigen::MatrixXd out(kRefineParams * lidars, kRefineParams * lidars);
+    for (std::size_t a = 0; a < lidars; ++a) {
+      out.block<kRefineParams, kRefineParams>(kRefineParams * a, kRefineParams * a) = block(a, a);
+      for (std::size_t b = a + 1; b < lidars; ++b) {
+        out.block<kRefineParams, kRefineParams>(kRefineParams * a, kRefineParams * b) = block(a, b);
+        out.block<kRefineParams, kRefineParams>(kRefineParams * b, kRefineParams * a) = block(a, b).transpose();
+      }
+    }
+    return out;
+  }
+  Eigen::VectorXd gradient() const {
+    Eigen::VectorXd out(kRefineParams * lidars);
+    for (std::size_t l = 0; l < lidars; ++l) out.segment<kRefineParams>(kRefineParams * l) = g[l];
+    return out;
   }
 };
 
@@ -153,10 +221,49 @@ void refit_planes(const std::vector<Vec3f>& p_world, LocalPlanes& lp) {
   });
 }
 
+// One plane's sums per LiDAR present in it (a plane eliminates its offset over all its points,
+// which is what ties one LiDAR's points to another's).
+struct PlaneSums {
+  std::vector<Mat7> JJ;
+  std::vector<Vec7> J;
+  std::vector<std::size_t> present;
+  std::vector<char> seen;
+  double w = 0.0;
+  explicit PlaneSums(std::size_t lidars) : JJ(lidars), J(lidars), seen(lidars, 0) {}
+  void start() {
+    for (std::size_t l : present) seen[l] = 0;
+    present.clear();
+    w = 0.0;
+  }
+  void add(std::size_t l, const Vec7& j, double weight) {
+    if (!seen[l]) {
+      seen[l] = 1;
+      present.push_back(l);
+      JJ[l].setZero();
+      J[l].setZero();
+    }
+    JJ[l].selfadjointView<Eigen::Upper>().rankUpdate(j, weight);
+    J[l] += weight * j;
+    w += weight;
+  }
+  // The plane moves with its points: eliminating its offset (the centroid) subtracts the
+  // plane's mean Jacobian; without it every step is mostly absorbed by the re-fitted plane.
+  void eliminate_into(NormalEquations& ne) {
+    std::sort(present.begin(), present.end());
+    for (std::size_t i = 0; i < present.size(); ++i) {
+      const std::size_t a = present[i];
+      ne.block(a, a) += JJ[a];
+      ne.block(a, a).selfadjointView<Eigen::Upper>().rankUpdate(J[a], -1.0 / w);
+      for (std::size_t k = i + 1; k < present.size(); ++k) ne.block(a, present[k]) -= J[a] * J[present[k]].transpose() / w;
+    }
+    if (present.size() > 1) ++ne.shared_planes;
+  }
+};
+
 // lp: the planes; empty = fit them from the current map, else keep its point grouping (a fixed
 // grouping makes the cost smooth, so the last iterations converge instead of jittering as
 // voxels flip in and out of the planar set).
-NormalEquations build_normal_equations(const Problem& p, const State& s, const RefineConfig& config,
+NormalEquations build_normal_equations(const Problem& p, const States& s, const RefineConfig& config,
                                        std::vector<Vec3f>& p_world, LocalPlanes& lp) {
   place_all(p, s, p_world);
   if (lp.planes.empty()) {
@@ -165,29 +272,28 @@ NormalEquations build_normal_equations(const Problem& p, const State& s, const R
     refit_planes(p_world, lp);
   }
   std::vector<Knots> knots(p.frames.size());
-  tbb::parallel_for(std::size_t{0}, p.frames.size(),
-                    [&](std::size_t f) { knots[f] = make_knots(p.frames[f], *p.poses, s.time_offset_s); });
-  const Mat3 R_ins_lidar = s.T_ins_lidar.linear();
-  tbb::combinable<NormalEquations> acc;
+  tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
+    knots[f] = make_knots(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
+  });
+  const std::size_t n_lidars = p.lidars();
+  tbb::combinable<NormalEquations> acc([n_lidars] { return NormalEquations(n_lidars); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lp.planes.size(), 256), [&](const auto& r) {
     NormalEquations& ne = acc.local();
+    PlaneSums sums(n_lidars);
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
       const LocalPlane& plane = lp.planes[k];
-      // The plane moves with its points: eliminating its offset (the centroid) subtracts the
-      // plane's mean Jacobian; without it every step is mostly absorbed by the re-fitted plane.
-      Mat7 sum_JJ = Mat7::Zero();
-      Vec7 sum_J = Vec7::Zero();
-      double sum_w = 0.0;
+      sums.start();
       for (std::uint32_t m = plane.first; m < plane.first + plane.count; ++m) {
         const std::uint32_t idx = lp.point_index[m];
         const std::size_t f = p.frame_of[idx];
+        const std::size_t l = p.lidar_of[f];
         const Sweep& sweep = p.frames[f];
         const std::size_t j = idx - p.first[f];
         const Knots& kn = knots[f];
         const int kk = kn.nearest(sweep.has_time() ? sweep.dt_s[j] - kn.t0 : -kn.t0);
         const Vec3 q = p_world[idx].cast<double>();
         const double res = plane.normal.dot(q - plane.centroid);
-        const Vec3 a = R_ins_lidar * sweep.p_lidar[j].cast<double>();  // rotated point, INS axes
+        const Vec3 a = s[l].T_ins_lidar.linear() * sweep.p_lidar[j].cast<double>();  // rotated point, INS axes
         const Vec3 m_ins = kn.R_world_ins[kk].transpose() * plane.normal;
         Vec7 J;
         J.head<3>() = m_ins;
@@ -195,173 +301,330 @@ NormalEquations build_normal_equations(const Problem& p, const State& s, const R
         J(kTimeIndex) = plane.normal.dot(kn.v_world[kk] + kn.w_world[kk].cross(q - kn.t_world_ins[kk]));
         const double ar = std::abs(res);
         const double w = ar <= config.huber_m ? 1.0 : config.huber_m / ar;
-        sum_JJ.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
-        sum_J += w * J;
-        sum_w += w;
-        ne.g += w * res * J;
+        sums.add(l, J, w);
+        ne.g[l] += w * res * J;
         ne.cost += w * res * res;
         ne.sq += res * res;
         ++ne.n;
+        ne.sq_lidar[l] += res * res;
+        ++ne.n_lidar[l];
       }
-      ne.H += sum_JJ;
-      ne.H.selfadjointView<Eigen::Upper>().rankUpdate(sum_J, -1.0 / sum_w);
+      sums.eliminate_into(ne);
     }
   });
-  NormalEquations total;
+  NormalEquations total(n_lidars);
   acc.combine_each([&](const NormalEquations& ne) { total += ne; });
-  total.H = total.H.selfadjointView<Eigen::Upper>();
+  for (std::size_t l = 0; l < n_lidars; ++l) total.block(l, l) = total.block(l, l).selfadjointView<Eigen::Upper>();
   return total;
 }
 
-std::vector<int> active_dofs(const RefineConfig& c) {
+std::vector<int> active_dofs(const RefineConfig& c, bool time_offset) {
   std::vector<int> dofs = {0, 1};
   if (c.estimate_tz) dofs.push_back(2);
   dofs.insert(dofs.end(), {3, 4, 5});
-  if (c.estimate_time_offset) dofs.push_back(kTimeIndex);
+  if (time_offset) dofs.push_back(kTimeIndex);
   return dofs;
+}
+
+// Indices into the 7N joint parameters.
+std::vector<int> active_params(const RefineConfig& c, const std::vector<bool>& offset_free) {
+  std::vector<int> out;
+  for (std::size_t l = 0; l < offset_free.size(); ++l)
+    for (int d : active_dofs(c, offset_free[l])) out.push_back(kRefineParams * static_cast<int>(l) + d);
+  return out;
 }
 
 std::string fmt_m(double v) { return fmt::format("{}", v); }
 
+// What a search method finds besides the states.
+struct Search {
+  std::vector<std::vector<RefineRound>> rounds;  // per LiDAR
+  int evaluations = 0;
+  double crispness_before = 0.0, crispness_after = 0.0;
+  std::string measure;
+  bool converged = false;
+  bool undetermined = false;
+  std::string message;
+  std::size_t planes = 0, shared_planes = 0;
+  Eigen::MatrixXd information, covariance;  // 7N x 7N (continuous method)
+  double sigma_m = 0.0;
+  std::vector<double> residuals, rms_first_m, rms_last_m;  // per LiDAR
+};
+
 // ---- The paper's search: coordinate-wise grid search with shrinking steps on occupancy. ----
-State grid_search(const Problem& p, const State& start, const RefineConfig& config, RefineResult& result,
-                  const std::function<void(double)>& progress) {
+States grid_search(const Problem& p, const States& start, const std::vector<bool>& offset_free,
+                   const RefineConfig& config, Search& out, const std::function<void(double)>& progress) {
   std::vector<Vec3f> scratch;
-  State best = start;
+  States best = start;
   double best_cost = occupancy(p, best, config.occupancy_voxel_m, scratch);
-  ++result.evaluations;
-  result.crispness_before = best_cost;
-  const std::vector<int> dofs = active_dofs(config);
-  // Time offset first: it moves points the most; then rotations, then translations.
-  std::vector<int> order;
-  if (config.estimate_time_offset) order.push_back(kTimeIndex);
-  for (int d : {5, 3, 4, 0, 1, 2}) {
-    if (std::find(dofs.begin(), dofs.end(), d) != dofs.end()) order.push_back(d);
-  }
+  ++out.evaluations;
+  out.crispness_before = best_cost;
   double scale = 1.0;
   for (int round = 0; round < config.grid_rounds; ++round) {
     for (int pass = 0; pass < config.grid_sweeps_per_round; ++pass) {
-      for (int d : order) {
-        const double range = scale * (d < 3 ? config.grid_trans_range_m
-                                            : d < 6 ? config.grid_rot_range_deg * kRadPerDeg
-                                                    : config.time_offset_range_s);
-        const double step = range / std::max(1, config.grid_steps);
-        State centre = best;
-        for (int i = -config.grid_steps; i <= config.grid_steps; ++i) {
-          if (i == 0) continue;
-          Vec7 delta = Vec7::Zero();
-          delta(d) = i * step;
-          const State cand = apply(centre, delta);
-          if (d == kTimeIndex && std::abs(cand.time_offset_s - start.time_offset_s) > config.time_offset_range_s + 1e-12) {
-            continue;
-          }
-          const double cost = occupancy(p, cand, config.occupancy_voxel_m, scratch);
-          ++result.evaluations;
-          if (cost < best_cost) {
-            best_cost = cost;
-            best = cand;
+      for (std::size_t l = 0; l < p.lidars(); ++l) {
+        const std::vector<int> dofs = active_dofs(config, offset_free[l]);
+        // Time offset first: it moves points the most; then rotations, then translations.
+        std::vector<int> order;
+        if (offset_free[l]) order.push_back(kTimeIndex);
+        for (int d : {5, 3, 4, 0, 1, 2}) {
+          if (std::find(dofs.begin(), dofs.end(), d) != dofs.end()) order.push_back(d);
+        }
+        for (int d : order) {
+          const double range = scale * (d < 3 ? config.grid_trans_range_m
+                                              : d < 6 ? config.grid_rot_range_deg * kRadPerDeg
+                                                      : config.time_offset_range_s);
+          const double step = range / std::max(1, config.grid_steps);
+          const States centre = best;
+          for (int i = -config.grid_steps; i <= config.grid_steps; ++i) {
+            if (i == 0) continue;
+            Vec7 delta = Vec7::Zero();
+            delta(d) = i * step;
+            States cand = centre;
+            cand[l] = apply(centre[l], delta);
+            if (d == kTimeIndex &&
+                std::abs(cand[l].time_offset_s - start[l].time_offset_s) > config.time_offset_range_s + 1e-12) {
+              continue;
+            }
+            const double cost = occupancy(p, cand, config.occupancy_voxel_m, scratch);
+            ++out.evaluations;
+            if (cost < best_cost) {
+              best_cost = cost;
+              best = cand;
+            }
           }
         }
       }
     }
-    result.rounds.push_back({round, best.T_ins_lidar, best.time_offset_s, best_cost});
+    for (std::size_t l = 0; l < p.lidars(); ++l)
+      out.rounds[l].push_back({round, best[l].T_ins_lidar, best[l].time_offset_s, best_cost});
     if (progress) progress(0.1 + 0.9 * (round + 1) / config.grid_rounds);
     scale *= config.grid_shrink;
   }
-  result.crispness_after = best_cost;
-  result.measure = "occupied voxels (" + fmt_m(config.occupancy_voxel_m) + " m, mean of 2 staggered grids)";
-  result.converged = true;
+  out.crispness_after = best_cost;
+  out.measure = "occupied voxels (" + fmt_m(config.occupancy_voxel_m) + " m, mean of 2 staggered grids)";
+  out.converged = true;
   return best;
 }
 
-// ---- Smooth variant: plane thickness by Gauss-Newton, with a coarse offset scan first. ----
-State gauss_newton(const Problem& p, const State& start, const RefineConfig& config, RefineResult& result,
-                   const std::function<void(double)>& progress) {
-  std::vector<Vec3f> scratch;
-  State s = start;
-  // A wrong offset of tens of milliseconds smears the map by decimetres, beyond the reach of the
-  // local planes; a coarse occupancy scan puts Gauss-Newton within a step of the optimum.
-  if (config.estimate_time_offset && config.time_offset_scan_step_s > 0.0) {
-    const int n = static_cast<int>(std::floor(config.time_offset_range_s / config.time_offset_scan_step_s + 1e-9));
-    // Every few frames suffice for a decimetre-scale smear; the scan is then a small part of the stage.
-    const std::size_t stride = (p.frames.size() + 39) / 40;
-    std::vector<Sweep> subset;
-    for (std::size_t f = 0; f < p.frames.size(); f += stride) subset.push_back(p.frames[f]);
-    const Problem coarse = make_problem(*p.poses, std::move(subset));
-    double best_cost = 0.0;
-    double best_offset = start.time_offset_s;
-    for (int i = -n; i <= n; ++i) {
-      State cand = start;
-      cand.time_offset_s = start.time_offset_s + i * config.time_offset_scan_step_s;
-      place_all(coarse, cand, scratch);
-      const double cost = static_cast<double>(count_occupied_voxels(scratch, config.time_offset_scan_voxel_m));
-      ++result.evaluations;
-      if (i == -n || cost < best_cost) {
-        best_cost = cost;
-        best_offset = cand.time_offset_s;
-      }
+// A wrong offset of tens of milliseconds smears the map by decimetres, beyond the reach of the
+// local planes; a coarse occupancy scan of LiDAR l's own frames puts Gauss-Newton within a step
+// of the optimum.
+double scan_time_offset(const Problem& p, std::size_t l, const State& start, const RefineConfig& config,
+                        Search& out, std::vector<Vec3f>& scratch) {
+  const int n = static_cast<int>(std::floor(config.time_offset_range_s / config.time_offset_scan_step_s + 1e-9));
+  std::vector<std::size_t> own;
+  for (std::size_t f = 0; f < p.frames.size(); ++f)
+    if (p.lidar_of[f] == l) own.push_back(f);
+  // Every few frames suffice for a decimetre-scale smear; the scan is then a small part of the stage.
+  const std::size_t stride = (own.size() + 39) / 40;
+  std::vector<Sweep> subset;
+  for (std::size_t k = 0; k < own.size(); k += stride) subset.push_back(p.frames[own[k]]);
+  const std::size_t count = subset.size();
+  const Problem coarse = make_problem({p.poses[l]}, std::move(subset), std::vector<std::uint16_t>(count, 0));
+  double best_cost = 0.0;
+  double best_offset = start.time_offset_s;
+  for (int i = -n; i <= n; ++i) {
+    State cand = start;
+    cand.time_offset_s = start.time_offset_s + i * config.time_offset_scan_step_s;
+    place_all(coarse, {cand}, scratch);
+    const double cost = static_cast<double>(count_occupied_voxels(scratch, config.time_offset_scan_voxel_m));
+    ++out.evaluations;
+    if (i == -n || cost < best_cost) {
+      best_cost = cost;
+      best_offset = cand.time_offset_s;
     }
-    s.time_offset_s = best_offset;
   }
-  const std::vector<int> dofs = active_dofs(config);
-  const int n_dof = static_cast<int>(dofs.size());
+  return best_offset;
+}
+
+// Trust region: planes re-fitted from a smeared map only point the way for small steps. One
+// factor for the whole step keeps it a Gauss-Newton direction.
+double step_shrink(const Eigen::VectorXd& delta, std::size_t lidars) {
+  double shrink = 1.0;
+  for (std::size_t l = 0; l < lidars; ++l) {
+    const Vec7 d = delta.segment<kRefineParams>(kRefineParams * l);
+    const double rot = d.segment<3>(3).norm(), trans = d.head<3>().norm();
+    shrink = std::min({shrink, (0.5 * kRadPerDeg) / std::max(rot, 1e-15), 0.05 / std::max(trans, 1e-15),
+                       0.01 / std::max(std::abs(d(kTimeIndex)), 1e-15)});
+  }
+  return shrink;
+}
+
+bool step_converged(const Eigen::VectorXd& delta, std::size_t lidars, const RefineConfig& config) {
+  for (std::size_t l = 0; l < lidars; ++l) {
+    const Vec7 d = delta.segment<kRefineParams>(kRefineParams * l);
+    if (!(d.segment<3>(3).norm() < config.converged_rot_deg * kRadPerDeg && d.head<3>().norm() < config.converged_trans_m &&
+          std::abs(d(kTimeIndex)) < 1e-5)) {
+      return false;
+    }
+  }
+  return true;
+}
+
+void record_rms(const NormalEquations& ne, std::vector<double>& rms_m) {
+  rms_m.assign(ne.lidars, 0.0);
+  for (std::size_t l = 0; l < ne.lidars; ++l)
+    rms_m[l] = ne.n_lidar[l] > 0 ? std::sqrt(ne.sq_lidar[l] / static_cast<double>(ne.n_lidar[l])) : 0.0;
+}
+
+// ---- Smooth variant: plane thickness by Gauss-Newton, with a coarse offset scan first. ----
+States gauss_newton(const Problem& p, const States& start, const std::vector<bool>& offset_free,
+                    const RefineConfig& config, Search& out, const std::function<void(double)>& progress) {
+  std::vector<Vec3f> scratch;
+  States s = start;
+  for (std::size_t l = 0; l < p.lidars(); ++l) {
+    if (offset_free[l] && config.time_offset_scan_step_s > 0.0)
+      s[l].time_offset_s = scan_time_offset(p, l, start[l], config, out, scratch);
+  }
+  const std::vector<int> params = active_params(config, offset_free);
+  const int n_dof = static_cast<int>(params.size());
+  const int n_all = kRefineParams * static_cast<int>(p.lidars());
   Eigen::MatrixXd H_active;
   double sigma2 = 0.0;
   LocalPlanes planes;
   for (int it = 0; it < config.max_iterations; ++it) {
     if (it < config.refit_iterations) planes = LocalPlanes{};
     const NormalEquations ne = build_normal_equations(p, s, config, scratch, planes);
-    ++result.evaluations;
-    result.planes_used = planes.planes.size();
+    ++out.evaluations;
+    out.planes = planes.planes.size();
+    out.shared_planes = ne.shared_planes;
     const double rms = ne.n > 0 ? std::sqrt(ne.sq / static_cast<double>(ne.n)) : 0.0;
-    if (it == 0) result.crispness_before = rms;
-    result.crispness_after = rms;
+    if (it == 0) {
+      out.crispness_before = rms;
+      record_rms(ne, out.rms_first_m);
+    }
+    out.crispness_after = rms;
+    record_rms(ne, out.rms_last_m);
     if (ne.n < 100) {
-      result.outcome.status = StageStatus::kUndetermined;
-      result.outcome.message = "stage 2: fewer than 100 points on local planes in the stitched map";
+      out.undetermined = true;
+      out.message = "stage 2: fewer than 100 points on local planes in the stitched map";
       return start;
     }
+    const Eigen::MatrixXd H = ne.hessian();
+    const Eigen::VectorXd g = ne.gradient();
     H_active.resize(n_dof, n_dof);
     Eigen::VectorXd g_active(n_dof);
     for (int a = 0; a < n_dof; ++a) {
-      g_active(a) = ne.g(dofs[a]);
-      for (int b = 0; b < n_dof; ++b) H_active(a, b) = ne.H(dofs[a], dofs[b]);
+      g_active(a) = g(params[a]);
+      for (int b = 0; b < n_dof; ++b) H_active(a, b) = H(params[a], params[b]);
     }
     sigma2 = ne.cost / std::max<double>(1.0, static_cast<double>(ne.n) - n_dof);
+    out.information = H;
+    out.residuals.assign(ne.n_lidar.begin(), ne.n_lidar.end());
     Eigen::MatrixXd A = H_active;
     for (int a = 0; a < n_dof; ++a) A(a, a) += 1e-9 * H_active(a, a) + 1e-12;
     const Eigen::VectorXd dx = A.ldlt().solve(-g_active);
-    Vec7 delta = Vec7::Zero();
-    for (int a = 0; a < n_dof; ++a) delta(dofs[a]) = dx(a);
-    // Trust region: planes re-fitted from a smeared map only point the way for small steps.
-    const double rot = delta.segment<3>(3).norm(), trans = delta.head<3>().norm();
-    const double shrink = std::min({1.0, (0.5 * kRadPerDeg) / std::max(rot, 1e-15), 0.05 / std::max(trans, 1e-15),
-                                    0.01 / std::max(std::abs(delta(kTimeIndex)), 1e-15)});
-    delta *= shrink;
-    s = apply(s, delta);
-    result.rounds.push_back({it, s.T_ins_lidar, s.time_offset_s, rms});
+    Eigen::VectorXd delta = Eigen::VectorXd::Zero(n_all);
+    for (int a = 0; a < n_dof; ++a) delta(params[a]) = dx(a);
+    delta *= step_shrink(delta, p.lidars());
+    s = apply_step(s, delta);
+    for (std::size_t l = 0; l < p.lidars(); ++l) out.rounds[l].push_back({it, s[l].T_ins_lidar, s[l].time_offset_s, rms});
     if (progress) progress(0.1 + 0.9 * (it + 1) / config.max_iterations);
-    if (delta.segment<3>(3).norm() < config.converged_rot_deg * kRadPerDeg &&
-        delta.head<3>().norm() < config.converged_trans_m && std::abs(delta(kTimeIndex)) < 1e-5) {
-      result.converged = true;
+    if (step_converged(delta, p.lidars(), config)) {
+      out.converged = true;
       break;
     }
   }
   // 1-sigma from the information of the last iteration (points treated as independent, which
   // makes this optimistic; a guide to which DOF the drive pins down, not a guarantee).
   const Eigen::MatrixXd cov = sigma2 * H_active.ldlt().solve(Eigen::MatrixXd::Identity(n_dof, n_dof));
-  for (int a = 0; a < n_dof; ++a) {
-    const double sd = std::sqrt(std::max(0.0, cov(a, a)));
-    if (dofs[a] == kTimeIndex) {
-      result.time_offset_stddev_s = sd;
-    } else {
-      result.outcome.stddev(dofs[a]) = sd;
-      result.outcome.determined[static_cast<std::size_t>(dofs[a])] = true;
-    }
-  }
-  result.measure = "plane thickness RMS (m, " + fmt_m(config.plane_voxel_m) + " m planes)";
+  out.covariance = Eigen::MatrixXd::Zero(n_all, n_all);
+  for (int a = 0; a < n_dof; ++a)
+    for (int b = 0; b < n_dof; ++b) out.covariance(params[a], params[b]) = cov(a, b);
+  out.sigma_m = std::sqrt(sigma2);
+  out.measure = "plane thickness RMS (m, " + fmt_m(config.plane_voxel_m) + " m planes)";
   return s;
 }
+
+// Per-LiDAR stddev and verdicts from the joint covariance (estimated parameters only).
+void set_stddevs(const Search& search, const std::vector<bool>& offset_free, const RefineConfig& config,
+                 std::vector<RefineResult>& results) {
+  if (search.covariance.size() == 0) return;
+  for (std::size_t l = 0; l < results.size(); ++l) {
+    for (int d : active_dofs(config, offset_free[l])) {
+      const int i = kRefineParams * static_cast<int>(l) + d;
+      const double sd = std::sqrt(std::max(0.0, search.covariance(i, i)));
+      if (d == kTimeIndex) {
+        results[l].time_offset_stddev_s = sd;
+      } else {
+        results[l].outcome.stddev(d) = sd;
+        results[l].outcome.determined[static_cast<std::size_t>(d)] = true;
+      }
+    }
+  }
+}
+
+// The LiDARs' frames thinned into one problem (LiDAR by LiDAR); `covered`: only sweeps the
+// poses cover through the start offset (with the offset search's margin).
+Problem joint_problem(const std::vector<RefineLidar>& lidars, const RefineConfig& config,
+                      const std::vector<bool>& offset_free, bool covered, std::vector<std::size_t>& frames_per_lidar,
+                      std::vector<std::size_t>& points_per_lidar) {
+  std::vector<const PoseStream*> poses;
+  std::vector<Sweep> all;
+  std::vector<std::uint16_t> lidar_of;
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    const RefineLidar& in = lidars[l];
+    const double margin = offset_free[l] ? config.time_offset_range_s : 0.0;
+    std::vector<Sweep> sweeps = in.store->thinned(in.frames, config.filter);
+    if (covered) {
+      std::erase_if(sweeps, [&](const Sweep& s) {
+        return !sweep_covered(in.store->poses(), s, in.time_offset_start_s, margin + kJacobianLook_s);
+      });
+    }
+    frames_per_lidar.push_back(sweeps.size());
+    std::size_t points = 0;
+    for (Sweep& sweep : sweeps) {
+      points += sweep.size();
+      all.push_back(std::move(sweep));
+      lidar_of.push_back(static_cast<std::uint16_t>(l));
+    }
+    points_per_lidar.push_back(points);
+    poses.push_back(&in.store->poses());
+  }
+  return make_problem(std::move(poses), std::move(all), std::move(lidar_of));
+}
+
+std::vector<bool> offsets_free(const std::vector<RefineLidar>& lidars, const RefineConfig& config) {
+  std::vector<bool> out;
+  for (const RefineLidar& l : lidars) out.push_back(config.estimate_time_offset && l.estimate_time_offset);
+  return out;
+}
+
+// Fills every LiDAR's result from the search.
+void distribute(const Search& search, const States& final_states, JointRefineResult& result) {
+  for (std::size_t l = 0; l < result.lidars.size(); ++l) {
+    RefineResult& r = result.lidars[l];
+    r.measure = search.measure;
+    r.crispness_before = search.crispness_before;
+    r.crispness_after = search.crispness_after;
+    r.planes_used = search.planes;
+    r.evaluations = search.evaluations;
+    r.converged = search.converged;
+    r.rounds = search.rounds[l];
+    r.T_ins_lidar = final_states[l].T_ins_lidar;
+    r.time_offset_s = final_states[l].time_offset_s;
+    if (search.undetermined) {
+      r.outcome.status = StageStatus::kUndetermined;
+      r.outcome.message = search.message;
+    }
+  }
+  result.information = search.information;
+  result.covariance = search.covariance;
+  result.residual_sigma_m = search.sigma_m;
+  result.residuals = search.residuals;
+  result.rms_before_m = search.rms_first_m;
+  result.rms_after_m = search.rms_last_m;
+  result.planes_used = search.planes;
+  result.shared_planes = search.shared_planes;
+  result.evaluations = search.evaluations;
+  if (search.undetermined) {
+    result.outcome.status = StageStatus::kUndetermined;
+    result.outcome.message = search.message;
+  }
+}
+
+std::string lidar_prefix(const RefineLidar& l) { return l.name.empty() ? "" : "LiDAR '" + l.name + "': "; }
 
 }  // namespace
 
@@ -387,81 +650,129 @@ std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConf
   return picked;
 }
 
-RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,
-                              const Iso3& T_ins_lidar_start, double time_offset_start_s, const RefineConfig& config,
-                              const std::function<void(double)>& progress) {
+JointRefineResult refine_joint(const std::vector<RefineLidar>& lidars, const RefineConfig& config,
+                               const std::function<void(double)>& progress) {
   const auto t0 = Clock::now();
-  RefineResult result;
-  result.T_ins_lidar = T_ins_lidar_start;
-  result.time_offset_s = time_offset_start_s;
+  JointRefineResult result;
+  result.lidars.resize(lidars.size());
+  States start;
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    result.lidars[l].T_ins_lidar = lidars[l].T_ins_lidar_start;
+    result.lidars[l].time_offset_s = lidars[l].time_offset_start_s;
+    start.push_back({lidars[l].T_ins_lidar_start, lidars[l].time_offset_start_s});
+  }
   auto finish = [&] {
     result.outcome.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    for (RefineResult& r : result.lidars) r.outcome.wall_time_s = result.outcome.wall_time_s;
     if (progress) progress(1.0);
     return result;
   };
-  const double margin = config.estimate_time_offset ? config.time_offset_range_s : 0.0;
-  std::vector<Sweep> sweeps = store.thinned(frames, config.filter);
-  std::erase_if(sweeps, [&](const Sweep& s) {
-    return !sweep_covered(store.poses(), s, time_offset_start_s, margin + kJacobianLook_s);
-  });
-  if (sweeps.size() < kMinFrames) {
+  const std::vector<bool> offset_free = offsets_free(lidars, config);
+  std::vector<std::size_t> frames_used, points_used;
+  Problem p = joint_problem(lidars, config, offset_free, true, frames_used, points_used);
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    if (frames_used[l] >= kMinFrames) continue;
     result.outcome.status = StageStatus::kUndetermined;
-    result.outcome.message = "stage 2 (refinement): only " + std::to_string(sweeps.size()) +
+    result.outcome.message = lidar_prefix(lidars[l]) + "stage 2 (refinement): only " + std::to_string(frames_used[l]) +
                              " usable frames with motion between them (need " + std::to_string(kMinFrames) +
                              "); the vehicle barely moves, so no degree of freedom is determined";
+    for (RefineResult& r : result.lidars) r.outcome = result.outcome;
     return finish();
   }
-  Problem p = make_problem(store.poses(), std::move(sweeps));
   if (progress) progress(0.1);
-  result.frames_used = p.frames.size();
-  result.points_used = p.points();
-  result.time_offset_estimated = config.estimate_time_offset;
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    result.lidars[l].frames_used = frames_used[l];
+    result.lidars[l].points_used = points_used[l];
+    result.lidars[l].time_offset_estimated = offset_free[l];
+    result.lidars[l].outcome.status = StageStatus::kOk;
+  }
   result.outcome.status = StageStatus::kOk;
 
-  const State start{T_ins_lidar_start, time_offset_start_s};
-  const State final_state = config.method == RefineMethod::kOccupancyGrid
-                                ? grid_search(p, start, config, result, progress)
-                                : gauss_newton(p, start, config, result, progress);
-  std::vector<Vec3f> scratch;
-  place_all(p, start, scratch);
-  result.occupied_voxels_before = count_occupied_voxels(scratch, config.occupancy_voxel_m);
-  place_all(p, final_state, scratch);
-  result.occupied_voxels_after = count_occupied_voxels(scratch, config.occupancy_voxel_m);
-  result.T_ins_lidar = final_state.T_ins_lidar;
-  result.time_offset_s = final_state.time_offset_s;
+  Search search;
+  search.rounds.resize(lidars.size());
+  const States final_states = config.method == RefineMethod::kOccupancyGrid
+                                  ? grid_search(p, start, offset_free, config, search, progress)
+                                  : gauss_newton(p, start, offset_free, config, search, progress);
+  distribute(search, final_states, result);
+  if (!search.undetermined) set_stddevs(search, offset_free, config, result.lidars);
+  const std::vector<std::size_t> before = occupied_per_lidar(p, start, config.occupancy_voxel_m);
+  const std::vector<std::size_t> after = occupied_per_lidar(p, final_states, config.occupancy_voxel_m);
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    result.lidars[l].occupied_voxels_before = before[l];
+    result.lidars[l].occupied_voxels_after = after[l];
+  }
   return finish();
+}
+
+RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,
+                              const Iso3& T_ins_lidar_start, double time_offset_start_s, const RefineConfig& config,
+                              const std::function<void(double)>& progress) {
+  const RefineLidar one{"", &store, frames, T_ins_lidar_start, time_offset_start_s, true};
+  return std::move(refine_joint({one}, config, progress).lidars.front());
+}
+
+std::vector<JointRefineSystem> refine_joint_systems(const std::vector<RefineLidar>& lidars,
+                                                    const std::vector<std::vector<std::pair<Iso3, double>>>& states,
+                                                    const RefineConfig& config) {
+  std::vector<std::size_t> frames_used, points_used;
+  const Problem p = joint_problem(lidars, config, offsets_free(lidars, config), false, frames_used, points_used);
+  std::vector<JointRefineSystem> out;
+  std::vector<Vec3f> scratch;
+  LocalPlanes planes;
+  for (const auto& state : states) {
+    States s;
+    for (const auto& [T_ins_lidar, time_offset_s] : state) s.push_back({T_ins_lidar, time_offset_s});
+    const NormalEquations ne = build_normal_equations(p, s, config, scratch, planes);
+    out.push_back({ne.cost, ne.gradient(), ne.hessian(), ne.n});
+  }
+  return out;
 }
 
 std::vector<RefineSystem> refine_systems(const FrameStore& store, const std::vector<std::size_t>& frames,
                                          const std::vector<std::pair<Iso3, double>>& states, const RefineConfig& config) {
-  const Problem p = make_problem(store.poses(), store.thinned(frames, config.filter));
+  const RefineLidar one{"", &store, frames, Iso3::Identity(), 0.0, true};
+  std::vector<std::vector<std::pair<Iso3, double>>> joint_states;
+  for (const auto& state : states) joint_states.push_back({state});
   std::vector<RefineSystem> out;
-  std::vector<Vec3f> scratch;
-  LocalPlanes planes;
-  for (const auto& [T_ins_lidar, time_offset_s] : states) {
-    const NormalEquations ne = build_normal_equations(p, State{T_ins_lidar, time_offset_s}, config, scratch, planes);
-    out.push_back({ne.cost, ne.g, ne.H, ne.n});
-  }
+  for (const JointRefineSystem& sys : refine_joint_systems({one}, joint_states, config))
+    out.push_back({sys.cost, sys.gradient, sys.hessian, sys.points});
   return out;
+}
+
+JointRefineResult refine_joint_checked(const std::vector<RefineLidar>& lidars, double max_speed_mps,
+                                       const RefineConfig& config, const std::function<void(double)>& progress,
+                                       std::vector<std::string>& warnings) {
+  JointRefineResult joint = refine_joint(lidars, config, progress);
+  if (!joint.outcome.ok()) return joint;
+  std::vector<RefineLidar> fixed = lidars;
+  bool any = false;
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    const RefineResult& refine = joint.lidars[l];
+    const Iso3& T_start = lidars[l].T_ins_lidar_start;
+    const double shift_m = (refine.T_ins_lidar.translation() - T_start.translation()).head<2>().norm();
+    const double explained_m = max_speed_mps * std::abs(refine.time_offset_s - lidars[l].time_offset_start_s) +
+                               config.max_unexplained_shift_m;
+    if (!refine.time_offset_estimated || shift_m <= explained_m) continue;
+    warnings.push_back(lidar_prefix(lidars[l]) + fmt::format(
+        "stage 2 moved the lever arm by {:.1f} cm with a time offset of {:+.1f} ms, more than the offset explains "
+        "({:.1f} cm): this drive cannot separate the time offset from the lever arm (too few vertical structures?); "
+        "stage 2 repeated with the offset fixed at {:+.1f} ms",
+        100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * lidars[l].time_offset_start_s));
+    fixed[l].estimate_time_offset = false;
+    any = true;
+  }
+  return any ? refine_joint(fixed, config, progress) : joint;
 }
 
 RefineResult refine_checked(const FrameStore& store, const std::vector<std::size_t>& frames,
                             const Iso3& T_ins_lidar_start, double time_offset_start_s, double max_speed_mps,
                             const RefineConfig& config, const std::function<void(double)>& progress,
                             std::string& warning) {
-  RefineResult refine = refine_extrinsic(store, frames, T_ins_lidar_start, time_offset_start_s, config, progress);
-  const double shift_m = (refine.T_ins_lidar.translation() - T_ins_lidar_start.translation()).head<2>().norm();
-  const double explained_m =
-      max_speed_mps * std::abs(refine.time_offset_s - time_offset_start_s) + config.max_unexplained_shift_m;
-  if (!refine.outcome.ok() || !refine.time_offset_estimated || shift_m <= explained_m) return refine;
-  warning = fmt::format(
-      "stage 2 moved the lever arm by {:.1f} cm with a time offset of {:+.1f} ms, more than the offset explains "
-      "({:.1f} cm): this drive cannot separate the time offset from the lever arm (too few vertical structures?); "
-      "stage 2 repeated with the offset fixed at {:+.1f} ms",
-      100.0 * shift_m, 1e3 * refine.time_offset_s, 100.0 * explained_m, 1e3 * time_offset_start_s);
-  RefineConfig fixed_offset = config;
-  fixed_offset.estimate_time_offset = false;
-  return refine_extrinsic(store, frames, T_ins_lidar_start, time_offset_start_s, fixed_offset, progress);
+  const RefineLidar one{"", &store, frames, T_ins_lidar_start, time_offset_start_s, true};
+  std::vector<std::string> warnings;
+  JointRefineResult joint = refine_joint_checked({one}, max_speed_mps, config, progress, warnings);
+  if (!warnings.empty()) warning = warnings.front();
+  return std::move(joint.lidars.front());
 }
 
 }  // namespace insalign

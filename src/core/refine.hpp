@@ -33,6 +33,23 @@ inline constexpr std::array<std::pair<RefineMethod, std::string_view>, 2> kRefin
     {{RefineMethod::kContinuous, "continuous"}, {RefineMethod::kOccupancyGrid, "occupancy-grid"}}};
 constexpr auto enum_names(RefineMethod) { return std::span(kRefineMethodNames); }
 
+/// A rig's joint stage 2 (rig.hpp): which LiDARs share one map, by the overlap of their stitched
+/// maps (shared occupied voxels over the smaller map's).
+struct JointConfig {
+  bool enabled = true;              ///< false: every LiDAR of a rig refined alone
+  double overlap_voxel_m = 0.5;     ///< voxel edge of the overlap count, metres
+  double min_overlap = 0.05;        ///< shared fraction that ties two LiDARs; below, they do not overlap
+  std::size_t overlap_frames = 40;  ///< frames per LiDAR stitched to measure the overlap
+};
+
+template <class V>
+void visit_config(V& v, JointConfig& c) {
+  v("enabled", c.enabled, "rig: refine the overlapping LiDARs in one map (false: each alone)");
+  v("overlap_voxel_m", c.overlap_voxel_m, "rig: voxel edge of the overlap count, m");
+  v("min_overlap", c.min_overlap, "rig: shared occupied voxels / the smaller map's that tie two LiDARs");
+  v("overlap_frames", c.overlap_frames, "rig: frames per LiDAR stitched to measure the overlap");
+}
+
 struct RefineConfig {
   RefineMethod method = RefineMethod::kContinuous;
   /// Frames spread evenly over the drive's motion measure (frames.hpp), at most one per
@@ -78,6 +95,7 @@ struct RefineConfig {
   double time_offset_scan_step_s = 0.005;  ///< coarse occupancy scan of the offset before
                                            ///< Gauss-Newton, seconds (0: no scan)
   double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
+  JointConfig joint;                ///< rigs: the joint refinement of several LiDARs
 };
 
 template <class V>
@@ -109,6 +127,7 @@ void visit_config(V& v, RefineConfig& c) {
   v("converged_trans_m", c.converged_trans_m, "continuous: ...and the translation update below this, m");
   v("time_offset_scan_step_s", c.time_offset_scan_step_s, "coarse time-offset scan step before Gauss-Newton (0: none), s");
   v("time_offset_scan_voxel_m", c.time_offset_scan_voxel_m, "voxel of that scan's occupancy count, m");
+  v.section("joint", c.joint);
 }
 
 /// One step of the search: after each grid round, or each Gauss-Newton iteration.
@@ -180,5 +199,62 @@ RefineResult refine_checked(const FrameStore& store, const std::vector<std::size
                             const Iso3& T_ins_lidar_start, double time_offset_start_s, double max_speed_mps,
                             const RefineConfig& config, const std::function<void(double)>& progress,
                             std::string& warning);
+
+// ---- Several LiDARs in one map (a rig): the same problem, every frame carrying its LiDAR. ----
+
+/// One LiDAR of a joint refinement: its frames (placed with its store's poses) and its start.
+struct RefineLidar {
+  std::string name;                     ///< for messages; empty for a single LiDAR
+  const FrameStore* store = nullptr;
+  std::vector<std::size_t> frames;      ///< refine_frames of its store
+  Iso3 T_ins_lidar_start = Iso3::Identity();
+  double time_offset_start_s = 0.0;
+  bool estimate_time_offset = true;     ///< and config.estimate_time_offset
+};
+
+/// Parameters of LiDAR l in the joint state: [7 l, 7 l + 7) = tx ty tz roll pitch yaw (the
+/// INS-frame perturbation of observability.hpp) and its time offset.
+inline constexpr int kRefineParams = 7;
+
+struct JointRefineResult {
+  StageOutcome outcome;                 ///< of the whole problem (kUndetermined names the LiDAR)
+  /// Per LiDAR, as refine_extrinsic returns it (crispness: the joint map's; stddev: marginal of
+  /// the joint covariance).
+  std::vector<RefineResult> lidars;
+  /// 7N x 7N, m / rad / s: Gauss-Newton information of the last iteration (every parameter,
+  /// fixed ones included, planes eliminated) and the covariance of the estimated ones
+  /// (sigma^2 H^-1; rows and columns of fixed parameters zero). Empty if not run.
+  Eigen::MatrixXd information, covariance;
+  double residual_sigma_m = 0.0;        ///< weighted RMS point-to-plane distance, last iteration
+  std::vector<double> residuals;        ///< per LiDAR: its points on planes (last iteration)
+  std::vector<double> rms_before_m, rms_after_m;  ///< per LiDAR: its points' plane distance RMS
+  std::size_t planes_used = 0;
+  std::size_t shared_planes = 0;        ///< planes holding points of more than one LiDAR
+  int evaluations = 0;
+};
+
+/// Stage 2 over several LiDARs at once: all their frames in one stitched map, each through its
+/// own extrinsic and time offset, minimising the joint map's plane thickness. One LiDAR gives
+/// exactly refine_extrinsic's result.
+JointRefineResult refine_joint(const std::vector<RefineLidar>& lidars, const RefineConfig& config = {},
+                               const std::function<void(double)>& progress = {});
+
+/// refine_checked for several LiDARs: a LiDAR whose lever arm moves further than its offset
+/// change explains gets its offset fixed and the joint problem runs again (one warning each).
+JointRefineResult refine_joint_checked(const std::vector<RefineLidar>& lidars, double max_speed_mps,
+                                       const RefineConfig& config, const std::function<void(double)>& progress,
+                                       std::vector<std::string>& warnings);
+
+/// refine_systems for several LiDARs: states[k][l] is LiDAR l's (extrinsic, offset) at state k;
+/// gradient and hessian over the 7N parameters.
+struct JointRefineSystem {
+  double cost = 0.0;
+  Eigen::VectorXd gradient;
+  Eigen::MatrixXd hessian;
+  std::size_t points = 0;
+};
+std::vector<JointRefineSystem> refine_joint_systems(const std::vector<RefineLidar>& lidars,
+                                                    const std::vector<std::vector<std::pair<Iso3, double>>>& states,
+                                                    const RefineConfig& config);
 
 }  // namespace insalign
