@@ -5,6 +5,24 @@
 #include <algorithm>
 
 namespace insalign {
+namespace {
+
+// The sweep without the points keep[i] == 0 drops (every per-point field alike).
+Sweep kept_points(const Sweep& sweep, const std::vector<char>& keep) {
+  Sweep out;
+  out.name = sweep.name;
+  out.t_end_s = sweep.t_end_s;
+  for (std::size_t i = 0; i < sweep.size(); ++i) {
+    if (!keep[i]) continue;
+    out.p_lidar.push_back(sweep.p_lidar[i]);
+    if (sweep.has_time()) out.dt_s.push_back(sweep.dt_s[i]);
+    if (!sweep.intensity.empty()) out.intensity.push_back(sweep.intensity[i]);
+    if (!sweep.ring.empty()) out.ring.push_back(sweep.ring[i]);
+  }
+  return out;
+}
+
+}  // namespace
 
 FrameStore::FrameStore(const Dataset& data, const SweepFilter& base, const FramesConfig& frames)
     : data_(&data),
@@ -18,6 +36,12 @@ FrameStore FrameStore::with(PoseStream poses, std::vector<TimeSpan> excluded) co
   FrameStore out = *this;
   out.poses_ = std::make_shared<const PoseStream>(std::move(poses));
   out.excluded_ = std::move(excluded);
+  return out;
+}
+
+FrameStore FrameStore::with_mask(std::shared_ptr<const PointMask> mask) const {
+  FrameStore out = *this;
+  out.mask_ = std::move(mask);
   return out;
 }
 
@@ -39,7 +63,10 @@ const Sweep& FrameStore::reduced(std::size_t index) const {
 std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const {
   std::vector<Sweep> out(indices.size());
   tbb::parallel_for(std::size_t{0}, indices.size(),
-                    [&](std::size_t k) { out[k] = thin_sweep(reduced(indices[k]), filter); });
+                    [&](std::size_t k) {
+                      out[k] = thin_sweep(reduced(indices[k]), filter);
+                      if (mask_) out[k] = kept_points(out[k], mask_->keep(indices[k], out[k]));
+                    });
   return out;
 }
 

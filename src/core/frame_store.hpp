@@ -3,11 +3,15 @@
 // ever loaded, so a long drive costs no more memory than the frames the method picks.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <memory>
 #include <mutex>
+#include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "core/dataset.hpp"
@@ -15,10 +19,48 @@
 
 namespace insalign {
 
+/// What was wrong in a left-out INS stretch, and who found it (core/ins_screen.hpp).
+enum class SpanKind {
+  kDegradedFix,     ///< the INS states a worse solution than the drive's usual (RTK float, single, ...)
+  kInsOnly,         ///< no GNSS: the INS coasts on its inertial sensors
+  kInvalid,         ///< the INS marks its solution unusable
+  kLargeStddev,     ///< the INS states a standard deviation far above the drive's typical one
+  kMotionMismatch,  ///< LiDAR scan-to-scan motion disagrees with the INS motion (a jump)
+  kOffMap,          ///< the frames sit off the surfaces the rest of the drive agrees on
+};
+inline constexpr std::array<std::pair<SpanKind, std::string_view>, 6> kSpanKindNames{
+    {{SpanKind::kDegradedFix, "degraded-fix"}, {SpanKind::kInsOnly, "ins-only"}, {SpanKind::kInvalid, "invalid"},
+     {SpanKind::kLargeStddev, "large-stddev"}, {SpanKind::kMotionMismatch, "motion-mismatch"},
+     {SpanKind::kOffMap, "off-map"}}};
+constexpr auto enum_names(SpanKind) { return std::span(kSpanKindNames); }
+
+enum class SpanSource {
+  kInsStatus,    ///< the INS's own solution status and stated standard deviations
+  kLidarMotion,  ///< scan-to-scan registration against the INS motion
+  kMapResidual,  ///< per-frame offset from the map of the rest of the drive
+};
+inline constexpr std::array<std::pair<SpanSource, std::string_view>, 3> kSpanSourceNames{
+    {{SpanSource::kInsStatus, "ins-status"}, {SpanSource::kLidarMotion, "lidar-motion"},
+     {SpanSource::kMapResidual, "map-residual"}}};
+constexpr auto enum_names(SpanSource) { return std::span(kSpanSourceNames); }
+
 /// A span of INS time [begin, end] left out of the calibration (a bad INS stretch), and why.
 struct TimeSpan {
   double begin_s = 0.0, end_s = 0.0;  ///< INS clock
   std::string reason;
+  SpanKind kind = SpanKind::kDegradedFix;
+  SpanSource source = SpanSource::kInsStatus;
+};
+
+/// Which points of a frame the stages may use: points on things that moved are not (see
+/// core/moving_points.hpp). Thread-safe.
+class PointMask {
+ public:
+  virtual ~PointMask() = default;
+  /// keep[i]: point i of `sweep` (frame `index`, as loaded or thinned), placed by the mask itself.
+  virtual std::vector<char> keep(std::size_t index, const Sweep& sweep) const = 0;
+  /// The same for points a stage has already placed in the world.
+  virtual std::vector<char> keep_world(std::size_t index, const std::vector<Vec3f>& p_world) const = 0;
 };
 
 class FrameStore {
@@ -31,6 +73,8 @@ class FrameStore {
   /// INS trajectory) and with INS time spans left out (frames whose sweep touches one are not
   /// offered to any stage).
   FrameStore with(PoseStream poses, std::vector<TimeSpan> excluded) const;
+  /// The same frames whose thinned() copies leave out what `mask` drops (stage 3 asks it too).
+  FrameStore with_mask(std::shared_ptr<const PointMask> mask) const;
 
   const Dataset& data() const { return *data_; }
   /// The INS trajectory every stage places sweeps with: the dataset's, or a corrected one.
@@ -41,11 +85,13 @@ class FrameStore {
   const FramesConfig& frames_config() const { return frames_; }
   const SweepFilter& base_filter() const { return base_; }
   double sweep_period_s() const { return period_s_; }
+  /// nullptr: every point is used.
+  const PointMask* mask() const { return mask_.get(); }
 
   /// The frame thinned by the base filter, decoded on first use. Thread-safe; throws what the
   /// dataset's loader throws (and tries again on the next call).
   const Sweep& reduced(std::size_t index) const;
-  /// `filter` applied to the stored copies of the given frames, in parallel.
+  /// `filter` applied to the stored copies of the given frames, in parallel, then the mask.
   std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const;
 
   std::size_t frames_decoded() const { return cache_->decoded.load(); }
@@ -63,6 +109,7 @@ class FrameStore {
   const Dataset* data_;
   std::shared_ptr<const PoseStream> poses_;
   std::vector<TimeSpan> excluded_;
+  std::shared_ptr<const PointMask> mask_;
   SweepFilter base_;
   FramesConfig frames_;
   double period_s_ = 0.1;
