@@ -37,6 +37,24 @@ void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames,
     if (std::isfinite(r.refine->outcome.stddev[i])) r.stddev[i] = r.refine->outcome.stddev[i];
 }
 
+// The INS trajectory corrected jointly with the extrinsic: stage 2 takes the INS poses as exact,
+// and a drifting INS biases it. Returns the store with the corrected poses when they are used.
+std::optional<FrameStore> run_trajectory_correction(const FrameStore& store, const PipelineConfig& config,
+                                                    const PipelineProgress& progress, CalibrationResult& r) {
+  RefineConfig refine = config.refine;
+  refine.estimate_time_offset = r.refine && r.refine->time_offset_estimated;  // as stage 2 ended
+  progress("trajectory", 0.0);
+  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine);
+  progress("trajectory", 1.0);
+  if (!r.trajectory.applied) return std::nullopt;
+  r.T_ins_lidar = r.trajectory.T_ins_lidar;
+  r.time_offset_s = r.trajectory.time_offset_s;
+  if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
+  for (int i : {0, 1, 3, 4, 5}) r.stddev[i] = r.trajectory.outcome.stddev[i];
+  r.warnings.push_back(r.trajectory.decision);
+  return store.with(corrected_poses(store.poses(), r.trajectory), store.excluded());
+}
+
 // The formal stddev treats every point as independent and comes out 10-50x below the
 // benchmark's errors; the segments' disagreement is an honest floor.
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
@@ -89,10 +107,13 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
                                                   config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0)
                         : std::vector<std::size_t>{};
   if (config.run_refine) run_refine(store, refine_frames, config, progress, r);
+  std::optional<FrameStore> corrected;
+  if (config.run_refine) corrected = run_trajectory_correction(store, config, progress, r);
+  const FrameStore& placed = corrected ? *corrected : store;  // the poses the later steps use
 
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);
-  r.z = correct_z(store, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
+  r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
   progress("z", 1.0);
   r.T_ins_lidar = r.z.T_ins_lidar;
   r.determined[2] = r.z.determined() || r.rough.tz_estimated;
@@ -105,7 +126,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
     progress("repeatability", 0.0);
     RepeatabilityInputs in{groups, refine_frames, r.init.T_ins_lidar, r.T_ins_lidar, r.motion.max_speed_mps};
     if (r.z.determined()) in.T_ins_lidar_start.translation().z() = r.T_ins_lidar.translation().z();
-    r.repeatability = run_repeatability(store, in, config.rough, config.refine, config.repeatability);
+    r.repeatability = run_repeatability(placed, in, config.rough, config.refine, config.repeatability);
     progress("repeatability", 1.0);
     apply_repeatability(r.repeatability, r);
   }

@@ -18,6 +18,7 @@
 #include "core/refine.hpp"
 #include "core/repeatability.hpp"
 #include "core/rough.hpp"
+#include "core/trajectory_correction.hpp"
 #include "core/zcorrect.hpp"
 
 namespace insalign {
@@ -29,6 +30,7 @@ struct PipelineConfig {
   GlobalInitConfig init;
   RoughConfig rough;
   RefineConfig refine;
+  TrajectoryCorrectionConfig trajectory;  ///< the INS trajectory corrected with the extrinsic
   ZConfig z;
   RepeatabilityConfig repeatability;
   bool run_refine = true;                  ///< stage 2 (false: stop after stage 1)
@@ -45,6 +47,7 @@ void visit_config(V& v, PipelineConfig& c) {
   v.section("init", c.init);
   v.section("rough", c.rough);
   v.section("refine", c.refine);
+  v.section("trajectory", c.trajectory);
   v.section("z", c.z);
   v.section("repeatability", c.repeatability);
 }
@@ -54,6 +57,9 @@ struct CalibrationResult {
   GlobalInitResult init;
   RoughResult rough;
   std::optional<RefineResult> refine;
+  /// After stage 2: the INS trajectory correction and the joint extrinsic; when applied, stage 3
+  /// and the repeatability study place sweeps with the corrected poses.
+  TrajectoryCorrection trajectory;
   ZResult z;
   RepeatabilityResult repeatability;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< final estimate

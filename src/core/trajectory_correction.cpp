@@ -1,0 +1,501 @@
+#include "core/trajectory_correction.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "core/deskew.hpp"
+#include "core/occupancy.hpp"
+
+namespace insalign {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using MatX = Eigen::MatrixXd;
+using VecX = Eigen::VectorXd;
+
+// Parameters: tx ty tz (m), rotation about the INS axes (rad, R' = exp(w) R), time offset (s),
+// then 3 position corrections per knot (m, world), then one heading correction per knot (rad).
+constexpr int kExtrinsic = 7;
+constexpr int kOffset = 6;
+constexpr std::size_t kMinFrames = 10;
+constexpr std::size_t kMaxKnots = 300;  // the normal equations are dense in the knots
+constexpr double kTableStep_s = 0.01;   // pose table over a sweep, for the Jacobians
+constexpr double kLook_s = 0.006;       // the time-offset derivative looks this far beyond a sweep
+// Gauge: the corrections' mean is unobservable (a world shift; a heading mean is extrinsic yaw).
+// A prior on the mean alone fixes it without pulling any knot towards zero.
+constexpr double kMeanSigmaM = 0.01;
+constexpr double kMeanSigmaRad = 1e-4;
+
+struct Layout {
+  int knots = 0;
+  bool heading = false;
+  int size() const { return kExtrinsic + knots * (heading ? 4 : 3); }
+  int pos(int k, int axis) const { return kExtrinsic + 3 * k + axis; }
+  int head(int k) const { return kExtrinsic + 3 * knots + k; }
+};
+
+// Linear interpolation between knots: value = (1 - w) x[i] + w x[i + 1].
+struct Hat {
+  int i = 0;
+  double w = 0.0;
+};
+Hat hat_at(const std::vector<double>& t_knots, double t_s) {
+  const int n = static_cast<int>(t_knots.size());
+  if (n < 2) return {};
+  const double h = t_knots[1] - t_knots[0];
+  const double f = (t_s - t_knots[0]) / h;
+  const int i = std::clamp(static_cast<int>(std::floor(f)), 0, n - 2);
+  return {i, std::clamp(f - i, 0.0, 1.0)};
+}
+
+// The sweeps and where their points sit in one map.
+struct Problem {
+  std::vector<Sweep> sweeps;
+  std::vector<std::size_t> first;  // sweeps[f] holds map points [first[f], first[f + 1])
+  std::vector<std::uint32_t> frame_of;
+  std::size_t points() const { return first.back(); }
+};
+Problem make_problem(std::vector<Sweep> sweeps) {
+  Problem p;
+  p.sweeps = std::move(sweeps);
+  p.first.assign(1, 0);
+  for (const Sweep& s : p.sweeps) p.first.push_back(p.first.back() + s.size());
+  p.frame_of.resize(p.points());
+  for (std::size_t f = 0; f < p.sweeps.size(); ++f)
+    std::fill(p.frame_of.begin() + p.first[f], p.frame_of.begin() + p.first[f + 1], static_cast<std::uint32_t>(f));
+  return p;
+}
+
+void place_all(const Problem& p, const PoseStream& poses, const Iso3& T_ins_lidar, double offset_s,
+               std::vector<Vec3f>& p_world) {
+  p_world.resize(p.points());
+  PlaceOptions options;
+  options.time_offset_s = offset_s;
+  tbb::parallel_for(std::size_t{0}, p.sweeps.size(), [&](std::size_t f) {
+    const std::vector<Vec3f> w = sweep_to_world(p.sweeps[f], poses, T_ins_lidar, options);
+    std::copy(w.begin(), w.end(), p_world.begin() + static_cast<std::ptrdiff_t>(p.first[f]));
+  });
+}
+
+// INS pose, velocity and angular velocity (world) every 10 ms over a sweep, for the Jacobians.
+struct PoseTable {
+  double t0_s = 0.0;  // point time offset dt (LiDAR clock, relative to the sweep end) of entry 0
+  std::vector<Mat3> R_world_ins;
+  std::vector<Vec3> t_world_ins, v_world, w_world;
+  std::size_t nearest(double dt_s) const {
+    const double f = std::round((dt_s - t0_s) / kTableStep_s);
+    return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(R_world_ins.size() - 1)));
+  }
+};
+PoseTable make_table(const Sweep& sweep, const PoseStream& poses, double offset_s) {
+  PoseTable table;
+  double lo = 0.0;
+  if (sweep.has_time()) lo = *std::min_element(sweep.dt_s.begin(), sweep.dt_s.end());
+  table.t0_s = lo;
+  const int n = std::max(1, static_cast<int>(std::ceil(-lo / kTableStep_s)) + 1);
+  for (int i = 0; i < n; ++i) {
+    const double t = sweep.t_end_s + offset_s + lo + i * kTableStep_s;
+    const double ta = std::max(t - 0.005, poses.t_begin()), tb = std::min(t + 0.005, poses.t_end());
+    const Iso3 T = poses.T_world_ins(std::clamp(t, poses.t_begin(), poses.t_end()));
+    const Iso3 Ta = poses.T_world_ins(ta), Tb = poses.T_world_ins(tb);
+    table.R_world_ins.push_back(T.linear());
+    table.t_world_ins.push_back(T.translation());
+    table.v_world.push_back((Tb.translation() - Ta.translation()) / (tb - ta));
+    table.w_world.push_back(Ta.linear() * so3_log(Ta.linear().transpose() * Tb.linear()) / (tb - ta));
+  }
+  return table;
+}
+
+// Re-fits the planes of a frozen point grouping to the current map (centroid and normal).
+void refit_planes(const std::vector<Vec3f>& p_world, LocalPlanes& lp) {
+  tbb::parallel_for(std::size_t{0}, lp.planes.size(), [&](std::size_t k) {
+    LocalPlane& plane = lp.planes[k];
+    const Vec3 origin = p_world[lp.point_index[plane.first]].cast<double>();
+    Vec3 sum = Vec3::Zero();
+    Mat3 sum2 = Mat3::Zero();
+    for (std::uint32_t m = plane.first; m < plane.first + plane.count; ++m) {
+      const Vec3 d = p_world[lp.point_index[m]].cast<double>() - origin;
+      sum += d;
+      sum2 += d * d.transpose();
+    }
+    const Vec3 mean = sum / plane.count;
+    Eigen::SelfAdjointEigenSolver<Mat3> es(sum2 / plane.count - mean * mean.transpose());
+    plane.centroid = origin + mean;
+    plane.normal = es.eigenvectors().col(0);
+  });
+}
+
+struct Normal {
+  MatX H;  // upper triangle filled during accumulation
+  VecX g;
+  double cost = 0.0, sq = 0.0;
+  std::size_t n = 0;
+  explicit Normal(int size) : H(MatX::Zero(size, size)), g(VecX::Zero(size)) {}
+};
+
+// One point's Jacobian row: at most 7 extrinsic + 2 knots x 4 entries.
+struct SparseRow {
+  int n = 0;
+  std::array<int, 15> index{};
+  std::array<double, 15> value{};
+  void add(int i, double v) {
+    index[n] = i;
+    value[n++] = v;
+  }
+};
+
+// Scratch for one plane's summed Jacobian (the plane offset is eliminated per plane).
+struct PlaneSum {
+  VecX sum;
+  std::vector<char> seen;
+  std::vector<int> touched;
+  explicit PlaneSum(int size) : sum(VecX::Zero(size)), seen(static_cast<std::size_t>(size), 0) {}
+  void add(const SparseRow& row, double w) {
+    for (int a = 0; a < row.n; ++a) {
+      const int i = row.index[a];
+      if (!seen[static_cast<std::size_t>(i)]) {
+        seen[static_cast<std::size_t>(i)] = 1;
+        touched.push_back(i);
+      }
+      sum[i] += w * row.value[a];
+    }
+  }
+  void eliminate(MatX& H, double sum_w) {
+    for (int a : touched)
+      for (int b : touched)
+        if (a <= b) H(a, b) -= sum[a] * sum[b] / sum_w;
+    for (int a : touched) {
+      sum[a] = 0.0;
+      seen[static_cast<std::size_t>(a)] = 0;
+    }
+    touched.clear();
+  }
+};
+
+// The point-to-plane normal equations of the map at the state, every parameter included.
+Normal data_normal_equations(const Problem& p, const PoseStream& poses, const TrajectoryCorrection& s,
+                             const Layout& layout, double huber_m, const std::vector<Vec3f>& p_world,
+                             const LocalPlanes& lp) {
+  std::vector<PoseTable> tables(p.sweeps.size());
+  tbb::parallel_for(std::size_t{0}, p.sweeps.size(),
+                    [&](std::size_t f) { tables[f] = make_table(p.sweeps[f], poses, s.time_offset_s); });
+  const Mat3 R_ins_lidar = s.T_ins_lidar.linear();
+  const int size = layout.size();
+  tbb::combinable<Normal> acc([size] { return Normal(size); });
+  tbb::combinable<PlaneSum> sums([size] { return PlaneSum(size); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lp.planes.size(), 64), [&](const auto& r) {
+    Normal& ne = acc.local();
+    PlaneSum& plane_sum = sums.local();
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      const LocalPlane& plane = lp.planes[k];
+      double sum_w = 0.0;
+      for (std::uint32_t m = plane.first; m < plane.first + plane.count; ++m) {
+        const std::uint32_t idx = lp.point_index[m];
+        const std::size_t f = p.frame_of[idx];
+        const Sweep& sweep = p.sweeps[f];
+        const std::size_t j = idx - p.first[f];
+        const double dt = sweep.has_time() ? sweep.dt_s[j] : 0.0;
+        const PoseTable& table = tables[f];
+        const std::size_t e = table.nearest(dt);
+        const Vec3 q = p_world[idx].cast<double>();
+        const double res = plane.normal.dot(q - plane.centroid);
+        const Vec3 a = R_ins_lidar * sweep.p_lidar[j].cast<double>();
+        const Vec3 m_ins = table.R_world_ins[e].transpose() * plane.normal;
+        const Vec3 arm = q - table.t_world_ins[e];
+        SparseRow row;
+        for (int i = 0; i < 3; ++i) row.add(i, m_ins[i]);
+        const Vec3 jw = a.cross(m_ins);
+        for (int i = 0; i < 3; ++i) row.add(3 + i, jw[i]);
+        row.add(kOffset, plane.normal.dot(table.v_world[e] + table.w_world[e].cross(arm)));
+        const Hat h = hat_at(s.t_s, sweep.t_end_s + dt + s.time_offset_s);
+        for (int i = 0; i < 3; ++i) {
+          row.add(layout.pos(h.i, i), (1.0 - h.w) * plane.normal[i]);
+          row.add(layout.pos(h.i + 1, i), h.w * plane.normal[i]);
+        }
+        if (layout.heading) {
+          const double d_psi = plane.normal.dot(Vec3::UnitZ().cross(arm));
+          row.add(layout.head(h.i), (1.0 - h.w) * d_psi);
+          row.add(layout.head(h.i + 1), h.w * d_psi);
+        }
+        const double ar = std::abs(res);
+        const double w = ar <= huber_m ? 1.0 : huber_m / ar;
+        for (int x = 0; x < row.n; ++x) {
+          const double wx = w * row.value[x];
+          ne.g[row.index[x]] += wx * res;
+          for (int y = 0; y < row.n; ++y) {
+            const int ix = row.index[x], iy = row.index[y];
+            if (ix <= iy) ne.H(ix, iy) += wx * row.value[y];
+          }
+        }
+        plane_sum.add(row, w);
+        sum_w += w;
+        ne.cost += w * res * res;
+        ne.sq += res * res;
+        ++ne.n;
+      }
+      plane_sum.eliminate(ne.H, sum_w);
+    }
+  });
+  Normal total(size);
+  acc.combine_each([&](const Normal& ne) {
+    total.H += ne.H;
+    total.g += ne.g;
+    total.cost += ne.cost;
+    total.sq += ne.sq;
+    total.n += ne.n;
+  });
+  total.H = total.H.selfadjointView<Eigen::Upper>();
+  return total;
+}
+
+// Prior variance of the change between knots k and k+1 per axis: the assumed random walk, or
+// what the INS's stated variance does over the interval when that is more.
+double stated_variance(const std::vector<InsQuality>& quality, double t_s, bool vertical) {
+  if (quality.empty()) return 0.0;
+  auto it = std::lower_bound(quality.begin(), quality.end(), t_s,
+                             [](const InsQuality& q, double t) { return q.t_s < t; });
+  if (it == quality.end()) --it;
+  const double sd = vertical ? it->vertical_stddev_m : it->horizontal_stddev_m;
+  return std::isfinite(sd) ? sd * sd : 0.0;
+}
+
+// Adds the random-walk prior, the gauge and the fixed parameters (all in units of the data
+// term scaled by 1/data_var) to the normal equations.
+void add_priors(const TrajectoryCorrection& s, const Layout& layout, const TrajectoryCorrectionConfig& config,
+                const std::vector<InsQuality>& quality, bool estimate_offset, MatX& H, VecX& g, double& prior_cost) {
+  const int K = layout.knots;
+  const double h = s.t_s.size() > 1 ? s.t_s[1] - s.t_s[0] : 1.0;
+  const double q2 = config.drift_m_per_sqrt_s * config.drift_m_per_sqrt_s;
+  for (int k = 0; k + 1 < K; ++k) {
+    for (int axis = 0; axis < 3; ++axis) {
+      const bool vertical = axis == 2;
+      const double stated = std::abs(stated_variance(quality, s.t_s[k + 1], vertical) -
+                                     stated_variance(quality, s.t_s[k], vertical));
+      const double lambda = 1.0 / std::max({q2 * h, stated, 1e-12});
+      const int a = layout.pos(k, axis), b = layout.pos(k + 1, axis);
+      const double d = s.position_m[k + 1][axis] - s.position_m[k][axis];
+      H(a, a) += lambda, H(b, b) += lambda, H(a, b) -= lambda, H(b, a) -= lambda;
+      g[a] -= lambda * d, g[b] += lambda * d;
+      prior_cost += lambda * d * d;
+    }
+    if (layout.heading) {
+      const double sd = config.heading_drift_deg_per_sqrt_s * kRadPerDeg;
+      const double lambda = 1.0 / std::max(sd * sd * h, 1e-16);
+      const int a = layout.head(k), b = layout.head(k + 1);
+      const double d = s.heading_rad[k + 1] - s.heading_rad[k];
+      H(a, a) += lambda, H(b, b) += lambda, H(a, b) -= lambda, H(b, a) -= lambda;
+      g[a] -= lambda * d, g[b] += lambda * d;
+      prior_cost += lambda * d * d;
+    }
+  }
+  // The mean of each correction series: lambda (sum x / K)^2.
+  auto gauge = [&](auto index_of, auto value_of, double sigma) {
+    const double lambda = 1.0 / (sigma * sigma * K * K);
+    double sum = 0.0;
+    for (int k = 0; k < K; ++k) sum += value_of(k);
+    for (int a = 0; a < K; ++a) {
+      g[index_of(a)] += lambda * sum;
+      for (int b = 0; b < K; ++b) H(index_of(a), index_of(b)) += lambda;
+    }
+  };
+  for (int axis = 0; axis < 3; ++axis)
+    gauge([&](int k) { return layout.pos(k, axis); }, [&](int k) { return s.position_m[k][axis]; }, kMeanSigmaM);
+  if (layout.heading) gauge([&](int k) { return layout.head(k); }, [&](int k) { return s.heading_rad[k]; }, kMeanSigmaRad);
+  // tz stays where stage 3 put it (a vertical lever arm is a world shift here); the offset too
+  // unless it is estimated.
+  std::vector<int> fixed = {2};
+  if (!estimate_offset) fixed.push_back(kOffset);
+  for (int i : fixed) {
+    H.row(i).setZero();
+    H.col(i).setZero();
+    H(i, i) = 1.0;
+    g[i] = 0.0;
+  }
+}
+
+void apply_step(TrajectoryCorrection& s, const Layout& layout, const VecX& dx) {
+  Vec6 d6;
+  d6 << dx.head<3>(), dx.segment<3>(3);
+  s.T_ins_lidar = perturb_in_ins_frame(s.T_ins_lidar, d6);
+  s.time_offset_s += dx[kOffset];
+  for (int k = 0; k < layout.knots; ++k) {
+    for (int axis = 0; axis < 3; ++axis) s.position_m[k][axis] += dx[layout.pos(k, axis)];
+    if (layout.heading) s.heading_rad[k] += dx[layout.head(k)];
+  }
+}
+
+// Knots over the INS times of the sweeps used, at least the configured spacing apart.
+void place_knots(const Problem& p, double offset_s, const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s) {
+  double lo = 1e300, hi = -1e300;
+  for (const Sweep& sweep : p.sweeps) {
+    lo = std::min(lo, sweep.t_end_s + offset_s - 0.2);
+    hi = std::max(hi, sweep.t_end_s + offset_s + kLook_s);
+  }
+  const double span = std::max(hi - lo, 1e-3);
+  const double h = std::max(config.knot_spacing_s, span / static_cast<double>(kMaxKnots - 1));
+  const int n = std::max(2, static_cast<int>(std::ceil(span / h)) + 1);
+  for (int k = 0; k < n; ++k) s.t_s.push_back(lo + k * h);
+  s.position_m.assign(s.t_s.size(), Vec3::Zero());
+  if (config.estimate_heading) s.heading_rad.assign(s.t_s.size(), 0.0);
+}
+
+// RMS over the frames of the correction minus its mean (what the correction moves the map by).
+double correction_rms(const Problem& p, const TrajectoryCorrection& s) {
+  std::vector<Vec3> c;
+  for (const Sweep& sweep : p.sweeps) c.push_back(s.position_at(sweep.t_end_s + s.time_offset_s));
+  Vec3 mean = Vec3::Zero();
+  for (const Vec3& v : c) mean += v;
+  mean /= static_cast<double>(std::max<std::size_t>(1, c.size()));
+  double sum = 0.0;
+  for (const Vec3& v : c) sum += (v - mean).squaredNorm();
+  return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, c.size())));
+}
+
+struct Solver {
+  const Problem& p;
+  const FrameStore& store;
+  const TrajectoryCorrectionConfig& config;
+  const RefineConfig& refine;
+  Layout layout;
+  MatX H_last;  // the last system, priors included (for the covariance)
+
+  // Gauss-Newton from s; returns false when too few points lie on planes.
+  bool run(TrajectoryCorrection& s) {
+    std::vector<Vec3f> p_world;
+    LocalPlanes planes;
+    const PlaneThicknessConfig pc = plane_thickness_config(refine);
+    for (int it = 0; it < config.max_iterations; ++it) {
+      const PoseStream poses = corrected_poses(store.poses(), s);
+      place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
+      if (it < config.refit_iterations || planes.planes.empty()) {
+        planes = fit_local_planes(p_world, pc);
+      } else {
+        refit_planes(p_world, planes);
+      }
+      Normal ne = data_normal_equations(p, poses, s, layout, refine.huber_m, p_world, planes);
+      if (ne.n < 100) return false;
+      // The data term in units of its own noise, counted as point_correlation times fewer points.
+      const double data_var = config.point_correlation * ne.cost / static_cast<double>(ne.n);
+      ne.H /= data_var;
+      ne.g /= data_var;
+      double prior_cost = 0.0;
+      add_priors(s, layout, config, store.data().ins_quality, refine.estimate_time_offset, ne.H, ne.g, prior_cost);
+      VecX dx = ne.H.ldlt().solve(-ne.g);
+      // Trust region: planes re-fitted from a smeared map only point the way for small steps.
+      const double rot = dx.segment<3>(3).norm(), trans = dx.head<3>().norm();
+      const double corr = dx.tail(dx.size() - kExtrinsic).cwiseAbs().maxCoeff();
+      const double shrink = std::min({1.0, 0.5 * kRadPerDeg / std::max(rot, 1e-15), 0.05 / std::max(trans, 1e-15),
+                                      0.01 / std::max(std::abs(dx[kOffset]), 1e-15), 0.1 / std::max(corr, 1e-15)});
+      dx *= shrink;
+      apply_step(s, layout, dx);
+      s.iterations = it + 1;
+      H_last = std::move(ne.H);
+      if (rot < 1e-4 * kRadPerDeg && trans < 1e-5 && corr < 1e-4 && std::abs(dx[kOffset]) < 1e-5) break;
+    }
+    return true;
+  }
+};
+
+double thickness_rms(const Problem& p, const PoseStream& poses, const TrajectoryCorrection& s, const RefineConfig& refine) {
+  std::vector<Vec3f> p_world;
+  place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
+  return plane_thickness(p_world, plane_thickness_config(refine)).rms_m;
+}
+
+void decide(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s) {
+  const double gain = s.cost_ins_rms_m > 0.0 ? 1.0 - s.cost_corrected_rms_m / s.cost_ins_rms_m : 0.0;
+  const bool evidence = s.correction_rms_m >= config.apply_min_rms_m && gain >= config.apply_min_gain;
+  s.applied = config.mode == TrajectoryCorrectionMode::kAlways || evidence;
+  s.decision = fmt::format(
+      "the INS trajectory correction moves the frames by {:.1f} mm RMS and makes the map's planes {:.1f}% thinner "
+      "({:.1f} -> {:.1f} mm); {}",
+      1e3 * s.correction_rms_m, 100.0 * gain, 1e3 * s.cost_ins_rms_m, 1e3 * s.cost_corrected_rms_m,
+      s.applied ? (evidence ? "applied: the INS poses drift" : "applied (mode always)")
+                : fmt::format("not applied: the INS poses are consistent (auto applies from {:.0f} mm and {:.0f}%)",
+                              1e3 * config.apply_min_rms_m, 100.0 * config.apply_min_gain));
+}
+
+}  // namespace
+
+Vec3 TrajectoryCorrection::position_at(double t) const {
+  if (position_m.empty()) return Vec3::Zero();
+  if (position_m.size() == 1) return position_m.front();
+  const Hat h = hat_at(t_s, t);
+  return (1.0 - h.w) * position_m[h.i] + h.w * position_m[h.i + 1];
+}
+
+double TrajectoryCorrection::heading_at(double t) const {
+  if (heading_rad.size() < 2) return heading_rad.empty() ? 0.0 : heading_rad.front();
+  const Hat h = hat_at(t_s, t);
+  return (1.0 - h.w) * heading_rad[h.i] + h.w * heading_rad[h.i + 1];
+}
+
+PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& c) {
+  std::vector<StampedPose> out = poses.poses();
+  for (StampedPose& pose : out) {
+    pose.T_world_ins.translation() += c.position_at(pose.t_s);
+    if (!c.heading_rad.empty())
+      pose.T_world_ins.linear() = Eigen::AngleAxisd(c.heading_at(pose.t_s), Vec3::UnitZ()) * pose.T_world_ins.linear();
+  }
+  return PoseStream(std::move(out));
+}
+
+TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_ins_lidar_start,
+                                        double time_offset_start_s, const TrajectoryCorrectionConfig& config,
+                                        const RefineConfig& refine) {
+  const auto t0 = Clock::now();
+  TrajectoryCorrection s;
+  s.T_ins_lidar = T_ins_lidar_start;
+  s.time_offset_s = time_offset_start_s;
+  if (config.mode == TrajectoryCorrectionMode::kOff) {
+    s.outcome.message = "INS trajectory correction off";
+    return s;
+  }
+  RefineConfig picking = refine;
+  picking.max_frames = config.max_frames;
+  const double margin = refine.estimate_time_offset ? refine.time_offset_range_s : 0.0;
+  std::vector<Sweep> sweeps = store.thinned(refine_frames(store, picking, time_offset_start_s, margin), config.filter);
+  std::erase_if(sweeps, [&](const Sweep& sw) {
+    return !sweep_covered(store.poses(), sw, time_offset_start_s, margin + kLook_s);
+  });
+  if (sweeps.size() < kMinFrames) {
+    s.outcome.message = "INS trajectory correction skipped: fewer than 10 usable frames";
+    return s;
+  }
+  const Problem p = make_problem(std::move(sweeps));
+  s.frames_used = p.sweeps.size();
+  s.points_used = p.points();
+  place_knots(p, time_offset_start_s, config, s);
+  Solver solver{p, store, config, refine, Layout{static_cast<int>(s.t_s.size()), config.estimate_heading}, {}};
+  if (!solver.run(s)) {
+    s = TrajectoryCorrection{};
+    s.T_ins_lidar = T_ins_lidar_start;
+    s.time_offset_s = time_offset_start_s;
+    s.outcome.message = "INS trajectory correction skipped: fewer than 100 points on local planes";
+    return s;
+  }
+  // Covariance of the extrinsic with the corrections marginalised.
+  const MatX cov = solver.H_last.ldlt().solve(MatX::Identity(solver.H_last.rows(), solver.H_last.cols()));
+  s.outcome.status = StageStatus::kOk;
+  for (int i : {0, 1, 3, 4, 5}) {
+    s.outcome.stddev[i] = std::sqrt(std::max(0.0, cov(i, i)));
+    s.outcome.determined[static_cast<std::size_t>(i)] = true;
+  }
+  s.time_offset_stddev_s = refine.estimate_time_offset ? std::sqrt(std::max(0.0, cov(kOffset, kOffset))) : 0.0;
+  s.correction_rms_m = correction_rms(p, s);
+  s.cost_corrected_rms_m = thickness_rms(p, corrected_poses(store.poses(), s), s, refine);
+  s.cost_ins_rms_m = thickness_rms(p, store.poses(), s, refine);
+  decide(config, s);
+  s.outcome.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  return s;
+}
+
+}  // namespace insalign

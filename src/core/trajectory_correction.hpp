@@ -1,0 +1,117 @@
+// Slow INS error must not become an extrinsic error: the extrinsic estimated together with a
+// smooth correction of the INS trajectory. The position error of an INS that is not RTK fixed
+// walks by centimetres over a drive; where the car passes the same walls twice those walls no
+// longer meet, and the extrinsic that makes the map crispest is then biased (0.046 deg of yaw on
+// a drive whose poses drift by 5 mm/sqrt(s)). Here the INS position error (and optionally its
+// heading error) is a piecewise-linear function of time with knots every few seconds, kept
+// smooth by a random-walk prior (knot differences ~ q sqrt(dt)), and estimated jointly with the
+// extrinsic and the time offset by Gauss-Newton on stage 2's plane-thickness measure.
+//
+// What the data cannot tell apart, and how it is pinned:
+// - a constant world shift of the whole trajectory: harmless; the corrections' mean is kept at
+//   zero by a weak absolute prior;
+// - a constant heading error is an extrinsic yaw error (T_world_ins Rz(d) T_ins_lidar): the
+//   heading corrections' mean is kept at zero, so the INS's drive-mean heading error stays in
+//   yaw (a floor no method removes);
+// - a lever-arm error d moves each sweep by R(t) d, which a free position correction can mimic:
+//   x and y are determined only through the prior (the turns make R(t) d change faster than the
+//   INS can drift), so their standard deviation grows; rotations move points by range-dependent
+//   amounts that no trajectory shift mimics.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "core/frame_store.hpp"
+#include "core/geometry.hpp"
+#include "core/pose_stream.hpp"
+#include "core/refine.hpp"
+#include "core/stage.hpp"
+
+namespace insalign {
+
+enum class TrajectoryCorrectionMode {
+  kOff,     ///< the INS poses are taken as exact
+  kAuto,    ///< estimated always, applied only when the drive's evidence asks for it (see decide)
+  kAlways,  ///< estimated and applied
+};
+inline constexpr std::array<std::pair<TrajectoryCorrectionMode, std::string_view>, 3> kTrajectoryCorrectionModeNames{
+    {{TrajectoryCorrectionMode::kOff, "off"},
+     {TrajectoryCorrectionMode::kAuto, "auto"},
+     {TrajectoryCorrectionMode::kAlways, "always"}}};
+constexpr auto enum_names(TrajectoryCorrectionMode) { return std::span(kTrajectoryCorrectionModeNames); }
+
+struct TrajectoryCorrectionConfig {
+  TrajectoryCorrectionMode mode = TrajectoryCorrectionMode::kOff;
+  double knot_spacing_s = 1.0;            ///< knots of the correction, INS seconds
+  /// Assumed random walk of the INS position per axis where the INS states nothing better; the
+  /// stated standard deviations (Dataset::ins_quality) add their change between knots.
+  double drift_m_per_sqrt_s = 0.005;
+  bool estimate_heading = false;          ///< also a heading correction (about the world vertical)
+  double heading_drift_deg_per_sqrt_s = 0.002;  ///< its random-walk prior
+  /// Points of one plane seen from one sweep share their errors (range bias, the sweep's pose):
+  /// the data term counts as this many times fewer independent points against the prior.
+  double point_correlation = 20.0;
+  std::size_t max_frames = 240;           ///< frames spread over the drive's motion
+  SweepFilter filter{.min_range_m = 0.0, .max_range_m = 60.0, .voxel_m = 0.2, .max_points = 5000};
+  int max_iterations = 10;
+  int refit_iterations = 3;               ///< iterations that re-find the local planes
+  /// kAuto applies the correction when the trajectory it found moves the map by more than this
+  /// (RMS over the frames of the correction's time-varying part, m) ...
+  double apply_min_rms_m = 0.01;
+  /// ... and it lowers the plane-thickness cost by at least this fraction.
+  double apply_min_gain = 0.02;
+};
+
+template <class V>
+void visit_config(V& v, TrajectoryCorrectionConfig& c) {
+  v("mode", c.mode, "off, auto (applied when the drive's own evidence asks for it) or always");
+  v("knot_spacing_s", c.knot_spacing_s, "knots of the INS trajectory correction, s");
+  v("drift_m_per_sqrt_s", c.drift_m_per_sqrt_s, "assumed INS position random walk per axis (prior), m/sqrt(s)");
+  v("estimate_heading", c.estimate_heading, "also correct the INS heading (its drive mean stays in yaw)");
+  v("heading_drift_deg_per_sqrt_s", c.heading_drift_deg_per_sqrt_s, "assumed INS heading random walk (prior), deg/sqrt(s)");
+  v("point_correlation", c.point_correlation, "points per independent observation, weighing the data against the prior");
+  v("max_frames", c.max_frames, "frames spread over the drive's motion");
+  v.section("filter", c.filter);
+  v("max_iterations", c.max_iterations, "Gauss-Newton iterations at most");
+  v("refit_iterations", c.refit_iterations, "iterations that re-find the local planes before freezing them");
+  v("apply_min_rms_m", c.apply_min_rms_m, "auto: apply when the correction's time-varying part has at least this RMS, m");
+  v("apply_min_gain", c.apply_min_gain, "auto: ...and lowers the plane-thickness cost by at least this fraction");
+}
+
+struct TrajectoryCorrection {
+  /// kSkipped: off or too few frames; kOk: estimated (applied says whether it was used).
+  /// stddev: of the joint extrinsic (m, rad; tz +inf), the corrections marginalised.
+  StageOutcome outcome;
+  bool applied = false;
+  std::string decision;                 ///< why it was (not) applied, in plain words
+  std::vector<double> t_s;              ///< knot times, INS clock
+  std::vector<Vec3> position_m;         ///< world frame: corrected position = reported + this
+  std::vector<double> heading_rad;      ///< corrected R_world_ins = Rz(this) * reported (empty: none)
+  Iso3 T_ins_lidar = Iso3::Identity();  ///< the joint estimate
+  double time_offset_s = 0.0;
+  double time_offset_stddev_s = 0.0;
+  double cost_ins_rms_m = 0.0;          ///< plane thickness RMS with the INS poses, at the joint extrinsic
+  double cost_corrected_rms_m = 0.0;    ///< ... and with the corrected poses
+  double correction_rms_m = 0.0;        ///< RMS over the frames of the corrections minus their mean
+  std::size_t frames_used = 0, points_used = 0;
+  int iterations = 0;
+
+  Vec3 position_at(double t_s) const;   ///< interpolated (constant beyond the knots)
+  double heading_at(double t_s) const;
+};
+
+/// The INS trajectory with the correction applied at every pose.
+PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& correction);
+
+/// Estimates the correction and the extrinsic jointly from a start near the optimum (stage 2's
+/// result). Local planes follow `refine` (plane_voxel_m etc.); tz and, unless
+/// refine.estimate_time_offset, the offset stay fixed. `ins_quality`: the INS's stated stddevs.
+TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_ins_lidar_start,
+                                        double time_offset_start_s, const TrajectoryCorrectionConfig& config,
+                                        const RefineConfig& refine);
+
+}  // namespace insalign
