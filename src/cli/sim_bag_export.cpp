@@ -374,16 +374,6 @@ nlohmann::json bag_ground_truth(const sim::World& world, const SimBagOptions& o,
   return j;
 }
 
-void write_geodetic_fiducials(const fs::path& path, const std::vector<Fiducial>& fiducials, const io::LocalEnu& enu,
-                              const Vec3& p_first) {
-  std::string out = "# wgs84\n# id lat_deg lon_deg ellipsoidal_height_m\n";
-  for (const Fiducial& f : fiducials) {
-    const io::GeodeticPoint p = enu.geodetic(f.p_world - p_first);
-    out += fmt::format("{} {} {} {}\n", f.id, p.lat_deg, p.lon_deg, p.height_m);  // shortest exact form
-  }
-  io::write_file_atomic(path, out);
-}
-
 }  // namespace
 
 Iso3 T_sim_ins_message(const sim::World& world, InsMessage message) {
@@ -433,7 +423,7 @@ SimBagResult write_sim_bag(const sim::World& world, const SimBagOptions& o, cons
   const bool geodetic = o.ins_message == InsMessage::kInspva || o.ins_message == InsMessage::kNavSatFixImu;
   const Vec3 p_first = (sim::dense_reported_poses(world, o.ins_rate_hz).front().T_world_ins * T_sim_msg).translation();
   if (geodetic) {
-    write_geodetic_fiducials(out_dir / "fiducials.txt", world.fiducials, enu, p_first);
+    io::write_geodetic_fiducials(out_dir / "fiducials.txt", world.fiducials, enu, -p_first);
   } else {
     io::write_fiducials(out_dir / "fiducials.txt", world.fiducials);
   }

@@ -12,7 +12,9 @@
 #include "io/extrinsic_json.hpp"
 #include "io/fiducials.hpp"
 #include "io/pcd.hpp"
+#include "io/pose_source.hpp"
 #include "io/poses.hpp"
+#include "io/read_file.hpp"
 
 namespace insalign::io {
 
@@ -75,19 +77,19 @@ class Warnings {
   std::map<std::string, std::size_t> count_;
 };
 
-}  // namespace
+struct TimedPose {
+  double t_s;
+  std::size_t source_index;  // into PoseSource::poses
+};
 
-Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) {
-  LoadReport report;
-  Warnings warn(report.warnings);
-  const std::string dir = paths.lidar_dir.string();
-
-  // 1. The folder: *.pcd frames, everything else counted and ignored.
+// 1. The folder: *.pcd frames, everything else counted and ignored.
+std::vector<Candidate> list_pcd_folder(const std::filesystem::path& lidar_dir, LoadReport& report) {
+  const std::string dir = lidar_dir.string();
   std::error_code ec;
-  if (!std::filesystem::exists(paths.lidar_dir, ec)) throw InputError(dir, "", "LiDAR folder not found");
-  if (!std::filesystem::is_directory(paths.lidar_dir, ec)) throw InputError(dir, "", "not a folder");
+  if (!std::filesystem::exists(lidar_dir, ec)) throw InputError(dir, "", "LiDAR folder not found");
+  if (!std::filesystem::is_directory(lidar_dir, ec)) throw InputError(dir, "", "not a folder");
   std::vector<Candidate> frames;
-  for (const auto& entry : std::filesystem::directory_iterator(paths.lidar_dir, ec)) {
+  for (const auto& entry : std::filesystem::directory_iterator(lidar_dir, ec)) {
     if (!entry.is_regular_file(ec)) continue;
     if (lower(entry.path().extension().string()) == ".pcd") {
       frames.push_back({entry.path(), entry.path().stem().string(), std::nullopt});
@@ -104,50 +106,57 @@ Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) {
   }
   std::sort(frames.begin(), frames.end(), [](const Candidate& a, const Candidate& b) { return a.path < b.path; });
   report.frames_total = frames.size();
+  return frames;
+}
 
-  // 2. Every header and file size (cheap); broken frames are skipped, all broken is fatal.
-  std::optional<InputError> first_error;
-  const auto mark_bad = [&](Candidate& c, const InputError& e) {
+// Broken frames are marked and counted; the first error is kept for when all are broken.
+class FrameChecks {
+ public:
+  FrameChecks(LoadReport& report, Warnings& warn) : report_(report), warn_(warn) {}
+  void mark_bad(Candidate& c, const InputError& e) {
     c.bad = true;
-    ++report.frames_bad;
-    warn.add("unreadable frames", std::string("skipped frame: ") + e.what());
-    if (!first_error) first_error = e;
-  };
+    ++report_.frames_bad;
+    warn_.add("unreadable frames", std::string("skipped frame: ") + e.what());
+    if (!first_error_) first_error_ = e;
+  }
+  void require_some(const std::vector<Candidate>& frames) const {
+    if (std::none_of(frames.begin(), frames.end(), [](const Candidate& c) { return !c.bad; })) throw *first_error_;
+  }
+
+ private:
+  LoadReport& report_;
+  Warnings& warn_;
+  std::optional<InputError> first_error_;
+};
+
+// 2. Every header and file size (cheap); broken frames are skipped, all broken is fatal.
+void check_headers(std::vector<Candidate>& frames, FrameChecks& checks) {
   for (Candidate& c : frames) {
     try {
       check_pcd_cheaply(c.path);
     } catch (const InputError& e) {
-      mark_bad(c, e);
+      checks.mark_bad(c, e);
     }
     c.name_time_s = time_from_frame_name(c.name);
   }
-  const auto good_count = [&] {
-    return static_cast<std::size_t>(std::count_if(frames.begin(), frames.end(), [](const Candidate& c) { return !c.bad; }));
-  };
-  if (good_count() == 0) throw *first_error;
+  checks.require_some(frames);
+}
 
-  // 3. Poses.
-  const PoseFile pose_file = read_pose_file(paths.poses);
-  const std::string pose_path = paths.poses.string();
-  report.pose_format = pose_file.format == PoseFormat::kTum ? "tum" : "opencalib";
-
-  // 4. Frame times. Names that encode times let us decode only a few sweeps to find how the
-  // name clock relates to the PCD clock (OpenCalib names are local time); otherwise every sweep
-  // is decoded once for its latest timestamp.
-  const bool all_named = std::all_of(frames.begin(), frames.end(),
-                                     [](const Candidate& c) { return c.bad || c.name_time_s.has_value(); });
+// Sweeps decoded for their clock: a few when every name encodes a time, else all of them.
+std::vector<std::size_t> clock_sample(const std::vector<Candidate>& frames, bool all_named) {
   std::vector<std::size_t> good;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     if (!frames[i].bad) good.push_back(i);
   }
+  if (!all_named || good.size() <= kClockSampleFrames) return good;
   std::vector<std::size_t> sample;
-  if (all_named && good.size() > kClockSampleFrames) {
-    for (std::size_t k = 0; k < kClockSampleFrames; ++k) {
-      sample.push_back(good[k * (good.size() - 1) / (kClockSampleFrames - 1)]);
-    }
-  } else {
-    sample = good;
-  }
+  for (std::size_t k = 0; k < kClockSampleFrames; ++k) sample.push_back(good[k * (good.size() - 1) / (kClockSampleFrames - 1)]);
+  return sample;
+}
+
+// Decodes the sample: each one's latest point time, and the time field most of them use.
+void decode_sample(std::vector<Candidate>& frames, const std::vector<std::size_t>& sample, FrameChecks& checks,
+                   LoadReport& report, const std::string& dir) {
   std::map<std::string, std::size_t> time_fields;
   for (std::size_t i : sample) {
     try {
@@ -159,53 +168,63 @@ Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) {
         throw InputError(frames[i].path.string(), "", fmt::format("empty sweep (all {} points non-finite)", info.points));
       }
     } catch (const InputError& e) {
-      mark_bad(frames[i], e);
+      checks.mark_bad(frames[i], e);
     }
   }
-  if (good_count() == 0) throw *first_error;
-  if (!time_fields.empty()) {
-    report.time_field = std::max_element(time_fields.begin(), time_fields.end(), [](const auto& a, const auto& b) {
-                          return a.second < b.second;
-                        })->first;
-    if (time_fields.size() > 1) report.warnings.push_back(fmt::format("{}: frames use different time fields", dir));
-  }
+  checks.require_some(frames);
+  if (time_fields.empty()) return;
+  report.time_field = std::max_element(time_fields.begin(), time_fields.end(), [](const auto& a, const auto& b) {
+                        return a.second < b.second;
+                      })->first;
+  if (time_fields.size() > 1) report.warnings.push_back(fmt::format("{}: frames use different time fields", dir));
+}
+
+// The offset from name times to the PCD clock: the median over the sample, warned when inconsistent.
+void align_names_to_pcd_clock(const std::vector<Candidate>& frames, const std::vector<std::size_t>& sample,
+                              LoadReport& report, const std::string& dir, bool& have_pcd_clock) {
   std::vector<double> name_to_pcd;
   for (std::size_t i : sample) {
     const Candidate& c = frames[i];
     if (!c.bad && c.name_time_s && std::isfinite(c.pcd_t_end_s)) name_to_pcd.push_back(c.pcd_t_end_s - *c.name_time_s);
   }
-  if (!name_to_pcd.empty()) {
-    report.name_to_lidar_clock_s = median(name_to_pcd);
-    double worst = 0.0;
-    for (double d : name_to_pcd) worst = std::max(worst, std::abs(d - report.name_to_lidar_clock_s));
-    if (worst > kClockConsistency_s) {
-      report.warnings.push_back(fmt::format(
-          "{}: frame names and PCD timestamps disagree by up to {:.3f} s beyond a constant offset of {:.3f} s", dir,
-          worst, report.name_to_lidar_clock_s));
-    }
+  have_pcd_clock = !name_to_pcd.empty();
+  if (name_to_pcd.empty()) return;
+  report.name_to_lidar_clock_s = median(name_to_pcd);
+  double worst = 0.0;
+  for (double d : name_to_pcd) worst = std::max(worst, std::abs(d - report.name_to_lidar_clock_s));
+  if (worst > kClockConsistency_s) {
+    report.warnings.push_back(fmt::format(
+        "{}: frame names and PCD timestamps disagree by up to {:.3f} s beyond a constant offset of {:.3f} s", dir, worst,
+        report.name_to_lidar_clock_s));
   }
+}
+
+// 3. Frame times. Names that encode times let us decode only a few sweeps to find how the name
+// clock relates to the PCD clock (OpenCalib names are local time); otherwise every sweep is
+// decoded once for its latest timestamp. Bad frames are dropped; the rest sorted by time.
+void time_frames(std::vector<Candidate>& frames, FrameChecks& checks, LoadReport& report, const std::string& dir) {
+  const bool all_named = std::all_of(frames.begin(), frames.end(),
+                                     [](const Candidate& c) { return c.bad || c.name_time_s.has_value(); });
+  const std::vector<std::size_t> sample = clock_sample(frames, all_named);
+  decode_sample(frames, sample, checks, report, dir);
+  bool have_pcd_clock = false;
+  align_names_to_pcd_clock(frames, sample, report, dir, have_pcd_clock);
   for (Candidate& c : frames) {
     if (c.bad) continue;
-    if (all_named) {
+    if (all_named || (!std::isfinite(c.pcd_t_end_s) && c.name_time_s)) {
       c.t_s = *c.name_time_s + report.name_to_lidar_clock_s;
     } else if (std::isfinite(c.pcd_t_end_s)) {
       c.t_s = c.pcd_t_end_s;
-    } else if (c.name_time_s) {
-      c.t_s = *c.name_time_s + report.name_to_lidar_clock_s;
     } else {
-      mark_bad(c, InputError(c.path.string(), "",
-                             "no frame time: the PCD has no absolute 'timestamp' field and the name is not a time"));
+      checks.mark_bad(c, InputError(c.path.string(), "",
+                                    "no frame time: the PCD has no absolute 'timestamp' field and the name is not a time"));
     }
   }
-  if (good_count() == 0) throw *first_error;
-  if (all_named) {
-    report.frame_time_source = name_to_pcd.empty()
-                                   ? "frame names (the PCDs carry no absolute time)"
-                                   : fmt::format("frame names + {:.3f} s (aligned to the PCD timestamps)",
-                                                 report.name_to_lidar_clock_s);
-  } else {
-    report.frame_time_source = "latest point timestamp of each PCD";
-  }
+  checks.require_some(frames);
+  report.frame_time_source = !all_named       ? "latest point timestamp of each PCD"
+                             : !have_pcd_clock ? "frame names (the PCDs carry no absolute time)"
+                                               : fmt::format("frame names + {:.3f} s (aligned to the PCD timestamps)",
+                                                             report.name_to_lidar_clock_s);
   frames.erase(std::remove_if(frames.begin(), frames.end(), [](const Candidate& c) { return c.bad; }), frames.end());
   std::stable_sort(frames.begin(), frames.end(), [](const Candidate& a, const Candidate& b) { return a.t_s < b.t_s; });
   for (std::size_t i = 1; i < frames.size(); ++i) {
@@ -214,21 +233,20 @@ Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) {
                        fmt::format("same frame time ({:.6f} s) as {}", frames[i].t_s, frames[i - 1].path.string()));
     }
   }
+}
 
-  // 5. Pose times: an OpenCalib pose is at its frame's time; TUM poses carry their own.
+// 4. Pose times: an OpenCalib pose is at its frame's time; every other source carries its own.
+std::vector<TimedPose> place_poses(const PoseSource& source, const std::vector<Candidate>& frames, LoadReport& report,
+                                   Warnings& warn) {
   std::map<std::string, std::size_t> frame_by_name;
   for (std::size_t i = 0; i < frames.size(); ++i) frame_by_name[frames[i].name] = i;
-  struct TimedPose {
-    double t_s;
-    std::size_t line;
-    Iso3 T_world_ins;
-  };
-  std::vector<TimedPose> timed;
   std::vector<bool> frame_has_pose(frames.size(), false);
-  for (std::size_t k = 0; k < pose_file.T_world_ins.size(); ++k) {
-    double t = pose_file.t_s[k];
-    if (pose_file.format == PoseFormat::kOpenCalib) {
-      const auto it = frame_by_name.find(pose_file.frame_names[k]);
+  std::vector<TimedPose> timed;
+  for (std::size_t k = 0; k < source.poses.size(); ++k) {
+    const SourcePose& p = source.poses[k];
+    double t = p.t_s;
+    if (source.per_frame) {
+      const auto it = frame_by_name.find(p.frame_name);
       if (it != frame_by_name.end()) {
         t = frames[it->second].t_s;
         frame_has_pose[it->second] = true;
@@ -238,89 +256,177 @@ Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) {
       }
       if (!std::isfinite(t)) {
         ++report.poses_unplaced;
-        warn.add("unplaced poses", fmt::format("{}:line {}: pose '{}' has no frame and its name is not a time; dropped",
-                                               pose_path, pose_file.line[k], pose_file.frame_names[k]));
+        warn.add("unplaced poses", fmt::format("{}:{}: pose '{}' has no frame and its name is not a time; dropped",
+                                               source.facts.path, p.location, p.frame_name));
         continue;
       }
     }
-    timed.push_back({t, pose_file.line[k], pose_file.T_world_ins[k]});
+    timed.push_back({t, k});
   }
-  if (timed.empty()) throw InputError(pose_path, "", "no pose can be placed in time");
-  if (!std::is_sorted(timed.begin(), timed.end(), [](const TimedPose& a, const TimedPose& b) { return a.t_s < b.t_s; })) {
-    report.warnings.push_back(pose_path + ": pose lines are not in time order; sorted by time");
-    std::stable_sort(timed.begin(), timed.end(), [](const TimedPose& a, const TimedPose& b) { return a.t_s < b.t_s; });
+  for (std::size_t i = 0; source.per_frame && i < frames.size(); ++i) {
+    if (frame_has_pose[i]) continue;
+    ++report.frames_without_pose;
+    warn.add("frames without a pose line", fmt::format("frame {} has no line in {} (interpolated if inside the pose time range)",
+                                                       frames[i].name, source.facts.path));
+  }
+  return timed;
+}
+
+// Sorted (with a warning), distinct times, recentred on the first position.
+void set_poses(Dataset& dataset, std::vector<TimedPose> timed, const PoseSource& source, LoadReport& report) {
+  const std::string& path = source.facts.path;
+  if (timed.empty()) throw InputError(path, "", "no pose can be placed in time");
+  const auto by_time = [](const TimedPose& a, const TimedPose& b) { return a.t_s < b.t_s; };
+  if (!std::is_sorted(timed.begin(), timed.end(), by_time)) {
+    report.warnings.push_back(path + ": pose lines are not in time order; sorted by time");
+    std::stable_sort(timed.begin(), timed.end(), by_time);
   }
   for (std::size_t k = 1; k < timed.size(); ++k) {
     if (timed[k].t_s - timed[k - 1].t_s < kSameTime_s) {
-      const auto [a, b] = std::minmax(timed[k - 1].line, timed[k].line);
-      throw InputError(pose_path, "line " + std::to_string(b),
-                       fmt::format("same time ({:.6f} s) as the pose on line {}", timed[k].t_s, a));
+      const auto [a, b] = std::minmax(timed[k - 1].source_index, timed[k].source_index);
+      throw InputError(path, source.poses[b].location,
+                       fmt::format("same time ({:.6f} s) as the pose at {}", timed[k].t_s, source.poses[a].location));
     }
   }
-  Dataset dataset;
-  dataset.world_origin_m = timed.front().T_world_ins.translation();
+  dataset.world_origin_m = source.poses[timed.front().source_index].T_world_ins.translation();
   std::vector<StampedPose> stamped;
-  stamped.reserve(timed.size());
   for (const TimedPose& p : timed) {
-    Iso3 T = p.T_world_ins;
+    Iso3 T = source.poses[p.source_index].T_world_ins;
     T.translation() -= dataset.world_origin_m;
     stamped.push_back({p.t_s, T});
+    if (!source.quality.empty()) {
+      InsQuality q = source.quality[p.source_index];
+      q.t_s = p.t_s;
+      dataset.ins_quality.push_back(q);
+    }
   }
   dataset.poses = PoseStream(std::move(stamped));
-  if (pose_file.format == PoseFormat::kOpenCalib) {
-    for (std::size_t i = 0; i < frames.size(); ++i) {
-      if (!frame_has_pose[i]) {
-        ++report.frames_without_pose;
-        warn.add("frames without a pose line",
-                 fmt::format("frame {} has no line in {} (interpolated if inside the pose time range)",
-                             frames[i].name, pose_path));
-      }
-    }
-  }
+}
 
-  // 6. Frames the poses do not reach are skipped.
-  std::vector<Candidate> used;
-  for (Candidate& c : frames) {
-    if (dataset.poses.covers(c.t_s)) {
-      used.push_back(std::move(c));
-      continue;
-    }
-    ++report.frames_outside_poses;
-    if (pose_file.format == PoseFormat::kTum) ++report.frames_without_pose;
-    warn.add("frames outside the poses",
-             fmt::format("skipped frame {}: its time {:.3f} s is outside the poses [{:.3f}, {:.3f}] s", c.name, c.t_s,
-                         dataset.poses.t_begin(), dataset.poses.t_end()));
-  }
-  if (used.empty()) {
-    throw InputError(pose_path, "",
-                     fmt::format("no frame lies within the poses' time range [{:.3f}, {:.3f}] s (frames span "
-                                 "[{:.3f}, {:.3f}] s): are the LiDAR and pose clocks the same?",
-                                 dataset.poses.t_begin(), dataset.poses.t_end(), frames.front().t_s,
-                                 frames.back().t_s));
-  }
-  report.frames_used = used.size();
-
-  // 7. Optional inputs.
-  if (paths.init) dataset.T_ins_lidar_init = read_opencalib_extrinsic(*paths.init);
-  if (paths.fiducials) {
-    dataset.fiducials = read_fiducials(*paths.fiducials);
-    for (Fiducial& f : dataset.fiducials) f.p_world -= dataset.world_origin_m;
-  }
-
-  // 8. Lazy, thread-safe frame loading: each call reads its own file; shared state is immutable.
+// Lazy, thread-safe frame loading: each call reads its own file; shared state is immutable.
+FrameSource pcd_frame_source(const std::vector<Candidate>& frames) {
+  FrameSource source;
   auto files = std::make_shared<std::vector<std::pair<std::filesystem::path, double>>>();
-  for (const Candidate& c : used) {
-    dataset.frames.frames.push_back({c.name, c.t_s});
+  for (const Candidate& c : frames) {
+    source.frames.push_back({c.name, c.t_s});
     files->emplace_back(c.path, c.t_s);
   }
-  dataset.frames.load = [files](std::size_t index) {
+  source.load = [files](std::size_t index) {
     const auto& [path, t_s] = files->at(index);
     Sweep sweep = read_pcd(path);
     // Relative point times carry no clock: the frame time found at load time is the end.
     if (!std::isfinite(sweep.t_end_s)) sweep.t_end_s = t_s;
     return sweep;
   };
+  return source;
+}
 
+ClockAlignment decide_clock(const Dataset& d, const InputConfig& config, const std::string& file,
+                            const std::string& one_clock) {
+  if (!one_clock.empty()) {
+    ClockAlignment a = given_clock_offset(d.frames, d.poses, 0.0, file);
+    a.meaning = "one clock: " + one_clock;
+    a.decision = a.meaning;
+    a.summary = a.meaning;
+    return a;
+  }
+  if (config.clock_offset_s) return given_clock_offset(d.frames, d.poses, *config.clock_offset_s, file);
+  return align_clocks(d.frames, d.poses, config.clock, file);
+}
+
+std::string fiducial_words(const std::vector<Fiducial>& f, const std::filesystem::path& path) {
+  std::string text;
+  try {
+    text = read_file(path);
+  } catch (const InputError&) {
+  }
+  return fmt::format("{} {} ({})", f.size(),
+                     is_wgs84_fiducial_text(text) ? "geodetic (# wgs84) through the INS's local ENU frame" : "in the world frame",
+                     path.string());
+}
+
+}  // namespace
+
+void apply_clock(Dataset& dataset, const ClockAlignment& clock, const std::string& file, LoadReport& report) {
+  Warnings warn(report.warnings);
+  if (clock.offset_s != 0.0) {
+    dataset.poses = shifted_poses(dataset.poses, -clock.offset_s);
+    for (InsQuality& q : dataset.ins_quality) q.t_s -= clock.offset_s;
+  }
+  const FrameSource all = dataset.frames;
+  auto index = std::make_shared<std::vector<std::size_t>>();
+  FrameSource used;
+  for (std::size_t i = 0; i < all.frames.size(); ++i) {
+    const FrameInfo& f = all.frames[i];
+    if (dataset.poses.covers(f.t_end_s)) {
+      used.frames.push_back(f);
+      index->push_back(i);
+      continue;
+    }
+    ++report.frames_outside_poses;
+    warn.add("frames outside the poses", fmt::format("skipped frame {}: its time {:.3f} s is outside the poses [{:.3f}, {:.3f}] s",
+                                                     f.name, f.t_end_s, dataset.poses.t_begin(), dataset.poses.t_end()));
+  }
+  warn.flush();
+  if (used.frames.empty()) {
+    throw InputError(file, "", fmt::format("no frame lies within the poses' time range [{:.3f}, {:.3f}] s (frames span "
+                                           "[{:.3f}, {:.3f}] s): are the LiDAR and pose clocks the same?",
+                                           dataset.poses.t_begin(), dataset.poses.t_end(), all.frames.front().t_end_s,
+                                           all.frames.back().t_end_s));
+  }
+  used.load = [load = all.load, index](std::size_t i) { return load(index->at(i)); };
+  dataset.frames = std::move(used);
+  report.frames_used = dataset.frames.frames.size();
+  report.clock = clock;
+}
+
+Dataset timed_dataset(FrameSource frames, const PoseSource& source, const InputConfig& config, LoadReport& report,
+                      const std::string& one_clock) {
+  Warnings warn(report.warnings);
+  std::vector<TimedPose> timed;
+  for (std::size_t k = 0; k < source.poses.size(); ++k) timed.push_back({source.poses[k].t_s, k});
+  Dataset dataset;
+  set_poses(dataset, std::move(timed), source, report);
+  dataset.frames = std::move(frames);
+  apply_clock(dataset, decide_clock(dataset, config, source.facts.path, one_clock), source.facts.path, report);
+  report.warnings.insert(report.warnings.end(), report.clock->warnings.begin(), report.clock->warnings.end());
+  report.ins = source.facts;
+  report.pose_format = source.facts.kind;
+  warn.flush();
+  return dataset;
+}
+
+Dataset load_dataset(const DatasetPaths& paths, LoadReport* report_out) { return load_dataset(paths, InputConfig{}, report_out); }
+
+Dataset load_dataset(const DatasetPaths& paths, const InputConfig& config, LoadReport* report_out) {
+  LoadReport report;
+  Warnings warn(report.warnings);
+  FrameChecks checks(report, warn);
+  const std::string dir = paths.lidar_dir.string();
+  std::vector<Candidate> frames = list_pcd_folder(paths.lidar_dir, report);
+  check_headers(frames, checks);
+  time_frames(frames, checks, report, dir);
+  const PoseSource source = read_pose_source(paths.poses, {frames.front().t_s, config.poses_columns, "--poses-columns (input.poses_columns)"});
+  report.pose_format = source.facts.kind;
+  report.ins = source.facts;
+  report.warnings.insert(report.warnings.end(), source.facts.warnings.begin(), source.facts.warnings.end());
+  Dataset dataset;
+  set_poses(dataset, place_poses(source, frames, report, warn), source, report);
+  dataset.frames = pcd_frame_source(frames);
+  const std::string one_clock = source.per_frame ? "OpenCalib poses are matched to the frames by name" : "";
+  apply_clock(dataset, decide_clock(dataset, config, source.facts.path, one_clock), source.facts.path, report);
+  if (!source.per_frame) report.frames_without_pose += report.frames_outside_poses;
+  report.warnings.insert(report.warnings.end(), report.clock->warnings.begin(), report.clock->warnings.end());
+  if (paths.init) {
+    dataset.T_ins_lidar_init = read_opencalib_extrinsic(*paths.init);
+    report.init = "--init " + paths.init->string();
+  }
+  if (paths.fiducials) {
+    dataset.fiducials = read_dataset_fiducials(*paths.fiducials, source.enu, dataset.world_origin_m, source.facts.format);
+    report.fiducials = fiducial_words(dataset.fiducials, *paths.fiducials);
+  }
+  report.input_kind = "PCD folder";
+  report.source = dir;
   warn.flush();
   if (report_out) *report_out = std::move(report);
   return dataset;

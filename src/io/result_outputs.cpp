@@ -6,6 +6,7 @@
 
 #include "core/stitch.hpp"
 #include "io/extrinsic_json.hpp"
+#include "io/input_report.hpp"
 
 namespace insalign::io {
 namespace {
@@ -169,13 +170,7 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
                    {"lever_arm_sensitivity", r.motion.lever_arm_sensitivity},
                    {"max_speed_mps", r.motion.max_speed_mps},
                    {"duration_s", r.motion.duration_s}};
-  const LoadReport& load = run.load;
-  out["input"] = {{"frames_total", load.frames_total},
-                  {"frames_used", load.frames_used},
-                  {"time_field", load.time_field},
-                  {"frame_time_source", load.frame_time_source},
-                  {"pose_format", load.pose_format},
-                  {"warnings", load.warnings}};
+  out["input"] = input_json(run.load);  // what was read: io/input_report.hpp
   return out;
 }
 
@@ -191,9 +186,10 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
       {"distance driven", fmt::format("{:.1f} m", r.motion.distance_m)},
       {"total heading change", fmt::format("{:.0f} deg", r.motion.heading_change_deg)},
       {"top speed", fmt::format("{:.1f} km/h", 3.6 * r.motion.max_speed_mps)},
-      {"point time field", load.time_field.empty() ? "none (no deskew)" : load.time_field},
+      {"point time field", describe_time_field(load.time_field)},
       {"frame times", load.frame_time_source},
       {"sweeps decoded", fmt::format("{} (each at most once)", r.frames_decoded)}};
+  for (auto& row : input_rows(load)) report.input_summary.push_back(std::move(row));
   report.stages.push_back({"start (" + std::string(enum_name(r.init.source)) + ")", r.init.T_ins_lidar, 0.0, "", NAN,
                            NAN, r.init.outcome.wall_time_s, r.init.explanation});
   report.stages.push_back({"stage 1: rough", r.rough.T_ins_lidar, 0.0, "robust point-to-plane cost (m^2)",
