@@ -18,6 +18,8 @@
 #include "cli/commands.hpp"
 #include "cli/progress.hpp"
 #include "cli/sim_bag_export.hpp"
+#include "cli/sim_ins_export.hpp"
+#include "cli/tool_config.hpp"
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
 #include "io/extrinsic_json.hpp"
@@ -42,6 +44,12 @@ struct SimulateOptions {
   std::string extrinsic;
   std::string pcd_encoding = "binary_compressed";
   std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
+  std::string poses_format = "opencalib";  ///< sim_ins_export.hpp
+  std::string novatel_record = "inspvaxa";
+  double ins_clock_offset_s = 0.0;
+  std::string config_file;   ///< --config: the sim section of a tool config, under the options given
+  std::string config_error;  ///< why --config could not be read (reported by run_simulate)
+  const CLI::App* app = nullptr;  ///< to ask which options were given
   int frames = 0;
   bool overwrite = false;
   bool quiet = false;
@@ -65,14 +73,24 @@ Iso3 parse_extrinsic(const std::string& text) {
   return make_transform(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
 }
 
-void apply_options(SimulateOptions& o) {
+// Whether an option was on the command line (with --config, the file's value stands otherwise).
+bool given(const SimulateOptions& o, const std::string& name) {
+  return o.config_file.empty() || o.app == nullptr || o.app->get_option(name)->count() > 0;
+}
+
+void check_poses_format(const SimulateOptions& o) {
+  const PosesFormat f = *parse_poses_format(o.poses_format);
+  if (o.format != "opencalib" && f != PosesFormat::kOpenCalib)
+    throw UsageError("--poses-format goes with the PCD folder layout, not with --format " + o.format);
+  if (is_ins_log_format(f) && !o.config.rig.empty()) throw UsageError("--poses-format " + o.poses_format + " writes one LiDAR (no --rig)");
+  if (std::abs(o.ins_clock_offset_s - std::round(o.ins_clock_offset_s)) > 1e-9)
+    throw UsageError(fmt::format("--ins-clock-offset-s {} is not a whole number of seconds", o.ins_clock_offset_s));
+  if (o.ins_clock_offset_s != 0.0 && (!is_ins_log_format(f) || f == PosesFormat::kKitti))
+    throw UsageError("--ins-clock-offset-s needs --poses-format novatel, sbet or csv (a KITTI drive has one clock)");
+}
+
+void apply_trajectory(SimulateOptions& o) {
   sim::SimConfig& c = o.config;
-  c.scene = o.scene == "feature-poor" ? sim::SceneKind::kFeaturePoor : sim::SceneKind::kIntersection;
-  c.ins_axes = o.ins_axes == "y-forward" ? sim::InsAxes::kYForward : sim::InsAxes::kXForward;
-  if (!sim::parse_ins_error_model(o.ins_error, c.ins_error.model))
-    throw UsageError("--ins-error \"" + o.ins_error + "\" is neither rtk-fixed nor drift");
-  if (o.ins_drift_m_per_sqrt_s >= 0.0)
-    c.ins_error.drift_horizontal_m_per_sqrt_s = c.ins_error.drift_vertical_m_per_sqrt_s = o.ins_drift_m_per_sqrt_s;
   if (o.trajectory == "figure8") {
     c.trajectory = sim::TrajectoryKind::kFigure8;
   } else if (o.trajectory == "straight") {
@@ -96,6 +114,19 @@ void apply_options(SimulateOptions& o) {
     }
     if (c.recorded_trajectory.size() < 2) throw InputError(o.trajectory, "", "needs at least 2 poses");
   }
+}
+
+void apply_options(SimulateOptions& o) {
+  if (!o.config_error.empty()) throw UsageError(o.config_error);
+  sim::SimConfig& c = o.config;
+  if (given(o, "--scene")) c.scene = o.scene == "feature-poor" ? sim::SceneKind::kFeaturePoor : sim::SceneKind::kIntersection;
+  if (given(o, "--ins-axes")) c.ins_axes = o.ins_axes == "y-forward" ? sim::InsAxes::kYForward : sim::InsAxes::kXForward;
+  if (given(o, "--ins-error") && !sim::parse_ins_error_model(o.ins_error, c.ins_error.model))
+    throw UsageError("--ins-error \"" + o.ins_error + "\" is neither rtk-fixed nor drift");
+  if (o.ins_drift_m_per_sqrt_s >= 0.0)
+    c.ins_error.drift_horizontal_m_per_sqrt_s = c.ins_error.drift_vertical_m_per_sqrt_s = o.ins_drift_m_per_sqrt_s;
+  check_poses_format(o);
+  if (given(o, "--trajectory")) apply_trajectory(o);
   if (!o.extrinsic.empty()) c.T_ins_lidar = parse_extrinsic(o.extrinsic);
   if (o.frames > 0) c.duration_s = o.frames / c.frame_rate_hz;
 }
@@ -360,6 +391,39 @@ void print_summary(const SimulateOptions& o, const sim::World& w, const fs::path
   }
 }
 
+io::NovatelRecord novatel_record(const std::string& name) {
+  return name == "inspvaa" ? io::NovatelRecord::kInspvaa : name == "inspvasa" ? io::NovatelRecord::kInspvasa : io::NovatelRecord::kInspvaxa;
+}
+
+SimInsOptions ins_log_options(const SimulateOptions& o, const sim::World& w, std::size_t points) {
+  SimInsOptions s;
+  s.format = *parse_poses_format(o.poses_format);
+  s.ins_clock_offset_s = o.ins_clock_offset_s;
+  s.log.novatel_record = novatel_record(o.novatel_record);
+  s.ground_truth = ground_truth_json(o, w, points);
+  s.ground_truth["config"]["poses_format"] = o.poses_format;
+  return s;
+}
+
+void print_ins_log(const SimInsResult& r) {
+  fmt::print("INS: {} records in {}; ins = {}\n", r.records, r.poses.string(), r.ins_frame);
+  if (!r.poses_columns.empty()) fmt::print("--poses-columns '{}' (also in poses-columns.txt)\n", r.poses_columns);
+  const Vec3 t = r.T_ins_lidar.translation(), rpy = rpy_from_rotation(r.T_ins_lidar.linear()) * kDegPerRad;
+  fmt::print("true T_ins_lidar in that frame: t = [{:.4f} {:.4f} {:.4f}] m, rpy = [{:.3f} {:.3f} {:.3f}] deg\n", t.x(), t.y(),
+             t.z(), rpy.x(), rpy.y(), rpy.z());
+}
+
+// --poses-format kitti: the whole drive in KITTI's layout instead of the PCD folder.
+int run_kitti(const SimulateOptions& o, const sim::World& world) {
+  ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
+  const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
+  const SimInsResult r = write_sim_kitti_raw(world, ins_log_options(o, world, 0), o.out, o.quiet ? SimInsProgress{} : SimInsProgress(print));
+  bar.finish();
+  fmt::print("wrote a KITTI raw drive of {} frames ({} points) to {} (--kitti-raw {})\n", r.frames, r.points, o.out, r.poses.string());
+  print_ins_log(r);
+  return kExitOk;
+}
+
 int run_simulate(SimulateOptions& o) {
   try {
     apply_options(o);
@@ -374,6 +438,8 @@ int run_simulate(SimulateOptions& o) {
     fmt::print(stderr, "error: {}\n", e.what());
     return kExitUsage;
   }
+  const PosesFormat poses_format = *parse_poses_format(o.poses_format);
+  if (poses_format == PosesFormat::kKitti) return run_kitti(o, world);
   if (o.format != "opencalib") {  // a recording instead of the PCD folder
     SimBagOptions bag;
     bag.format = *parse_bag_format(o.format);
@@ -399,6 +465,12 @@ int run_simulate(SimulateOptions& o) {
   // A bar on a terminal; in a log one line per step and a progress line at most every 5 s.
   ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
   const Rendered rendered = render_all(world, dirs, encoding, bar);
+  if (is_ins_log_format(poses_format)) {  // the INS log and its side files instead of the pose files
+    const SimInsResult r = write_sim_ins_log(world, ins_log_options(o, world, rendered.points.front()), out);
+    print_summary(o, world, out, rendered, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    print_ins_log(r);
+    return kExitOk;
+  }
   write_metadata(o, world, out, rendered);
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   print_summary(o, world, out, rendered, elapsed);
@@ -413,6 +485,21 @@ Command make_simulate_command() {
   command.setup = [o](CLI::App& app) {
     sim::SimConfig& c = o->config;
     CLI::App* sub = app.add_subcommand("simulate", "Simulate a calibration drive with ground truth (OpenCalib layout)");
+    o->app = sub;
+    // First, so that the file's values are set before the options given beside it (CLI11 assigns
+    // in declaration order; this one as soon as it is parsed): the command line wins.
+    sub->add_option_function<std::string>(
+           "--config",
+           [o](const std::string& path) {
+             o->config_file = path;
+             try {
+               o->config = load_tool_config(path).sim;
+             } catch (const std::exception& e) {
+               o->config_error = e.what();
+             }
+           },
+           "YAML file whose sim: section sets any simulator parameter (see 'insalign config --dump'); options override it")
+        ->trigger_on_parse();
     sub->add_option("--out", o->out, "output dataset directory (lidar/, poses.txt, ground_truth.json, ...)")->required();
     sub->add_option("--seed", c.seed, "random seed: scene, mount, noise")->capture_default_str();
     sub->add_option("--scene", o->scene, "intersection | feature-poor")
@@ -503,6 +590,20 @@ Command make_simulate_command() {
         ->capture_default_str();
     sub->add_option("--ins-message", o->ins_message, "recordings: inspva (INSPVA + INSPVAX) | navsatfix-imu | odometry | tf")
         ->check(CLI::IsMember({"inspva", "navsatfix-imu", "odometry", "tf"}))
+        ->capture_default_str();
+    sub->add_option("--poses-format", o->poses_format,
+                    "opencalib (poses.txt, poses_tum.txt) | tum (the same) | novatel (novatel.log, GPS time, ins = SPAN "
+                    "vehicle frame) | sbet (sbet.out, ins = x forward, y right, z down) | csv (ins_export.csv + "
+                    "poses-columns.txt) | kitti (a KITTI raw drive: <date>_drive_0001_sync/ + calib_imu_to_velo.txt, ins = "
+                    "OXTS frame); INS logs come with geodetic fiducials and ground_truth.json in their ins frame")
+        ->check(CLI::IsMember({"opencalib", "tum", "novatel", "sbet", "csv", "kitti"}))
+        ->capture_default_str();
+    sub->add_option("--novatel-record", o->novatel_record, "novatel: inspvaxa | inspvaa | inspvasa")
+        ->check(CLI::IsMember({"inspvaxa", "inspvaa", "inspvasa"}))
+        ->capture_default_str();
+    sub->add_option("--ins-clock-offset-s", o->ins_clock_offset_s,
+                    "novatel, sbet, csv: whole seconds added to every INS stamp (18: an INS on GPS time beside a LiDAR on UTC)")
+        ->check(CLI::Range(-86400.0, 86400.0))
         ->capture_default_str();
     sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
         ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))

@@ -1,10 +1,13 @@
 #include "io/ins/ins_log_writer.hpp"
 
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
+#include <atomic>
 #include <cmath>
 #include <fstream>
 #include <limits>
+#include <mutex>
 #include <stdexcept>
 
 #include "core/errors.hpp"
@@ -270,14 +273,30 @@ void write_ins_log(const std::filesystem::path& path, InsLogFormat format, const
 void write_kitti_drive(const std::filesystem::path& drive_dir, const std::vector<Sweep>& sweeps,
                        const std::vector<StampedPose>& poses, const std::vector<InsQuality>& quality,
                        const Iso3& T_ins_lidar_calib, const InsLogWriteOptions& options) {
+  write_kitti_drive(drive_dir, sweeps.size(), [&sweeps](std::size_t i) { return sweeps[i]; }, poses, quality,
+                    T_ins_lidar_calib, options);
+}
+
+void write_kitti_drive(const std::filesystem::path& drive_dir, std::size_t sweep_count,
+                       const std::function<Sweep(std::size_t)>& sweep_at, const std::vector<StampedPose>& poses,
+                       const std::vector<InsQuality>& quality, const Iso3& T_ins_lidar_calib,
+                       const InsLogWriteOptions& options, const std::function<void(std::size_t)>& done) {
   write_kitti_oxts(drive_dir / "oxts", poses, quality, options);
   const std::filesystem::path velo = partial_dir(drive_dir / "velodyne_points");
-  std::vector<double> t_start, t_end, t_forward;
-  for (std::size_t i = 0; i < sweeps.size(); ++i) {
-    const auto [start, end] = fitted_sweep_span(sweeps[i]);
-    t_start.push_back(start), t_end.push_back(end), t_forward.push_back(0.5 * (start + end));
-    write_kitti_velodyne(velo / "data" / fmt::format("{:010}.bin", i), sweeps[i]);
-  }
+  std::vector<double> t_start(sweep_count), t_end(sweep_count), t_forward(sweep_count);
+  std::atomic<std::size_t> written{0};
+  std::mutex report;
+  tbb::parallel_for(std::size_t{0}, sweep_count, [&](std::size_t i) {
+    const Sweep sweep = sweep_at(i);
+    const auto [start, end] = fitted_sweep_span(sweep);
+    t_start[i] = start, t_end[i] = end, t_forward[i] = 0.5 * (start + end);
+    write_kitti_velodyne(velo / "data" / fmt::format("{:010}.bin", i), sweep);
+    const std::size_t n = ++written;
+    if (done) {
+      const std::lock_guard<std::mutex> lock(report);
+      done(n);
+    }
+  });
   write_kitti_timestamps(velo / "timestamps_start.txt", t_start);
   write_kitti_timestamps(velo / "timestamps_end.txt", t_end);
   write_kitti_timestamps(velo / "timestamps.txt", t_forward);

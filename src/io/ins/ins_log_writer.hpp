@@ -6,7 +6,9 @@
 // 0.1 mm and 1e-6 deg or better: the printed precision; SBET is exact).
 #pragma once
 
+#include <cstddef>
 #include <filesystem>
+#include <functional>
 #include <vector>
 
 #include "core/dataset.hpp"
@@ -65,5 +67,12 @@ void write_ins_log(const std::filesystem::path& path, InsLogFormat format, const
 void write_kitti_drive(const std::filesystem::path& drive_dir, const std::vector<Sweep>& sweeps,
                        const std::vector<StampedPose>& poses, const std::vector<InsQuality>& quality,
                        const Iso3& T_ins_lidar_calib, const InsLogWriteOptions& options);
+/// The same with the sweeps made on demand: `sweep_at(i)` is called once per index, from several
+/// threads at a time (it must be thread-safe), so that a long drive never sits in memory;
+/// `done(n)` (optional) after each sweep written, n so far.
+void write_kitti_drive(const std::filesystem::path& drive_dir, std::size_t sweep_count,
+                       const std::function<Sweep(std::size_t)>& sweep_at, const std::vector<StampedPose>& poses,
+                       const std::vector<InsQuality>& quality, const Iso3& T_ins_lidar_calib,
+                       const InsLogWriteOptions& options, const std::function<void(std::size_t)>& done = {});
 
 }  // namespace insalign::io
