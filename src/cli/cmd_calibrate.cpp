@@ -1,26 +1,31 @@
-// insalign calibrate: load and validate the inputs, run the pipeline, write the results.
+// insalign calibrate: load and validate the inputs (any input kind: cli/input_options.hpp), run
+// the pipeline, write the results; several LiDARs go to the rig calibration (calibrate_rig.hpp).
 #include <fmt/core.h>
 #include <sys/resource.h>
 
-#include <chrono>
+#include <cmath>
+#include <limits>
 #include <memory>
 
+#include "cli/calibrate_rig.hpp"
 #include "cli/commands.hpp"
-#include "core/errors.hpp"
-#include "core/pipeline.hpp"
-#include "io/atomic_file.hpp"
-#include "io/dataset.hpp"
-#include "io/extrinsic_json.hpp"
+#include "cli/input_options.hpp"
 #include "cli/progress.hpp"
 #include "cli/tool_config.hpp"
+#include "core/pipeline.hpp"
+#include "io/atomic_file.hpp"
+#include "io/extrinsic_json.hpp"
 #include "io/formats.hpp"
+#include "io/input_info.hpp"
 #include "io/result_outputs.hpp"
 
 namespace insalign::cli {
 namespace {
 
 struct CalibrateOptions {
-  std::string lidar_dir, poses, init, fiducials, config, out;
+  InputOptions input;
+  ConfigOptions config;
+  std::string out;
   double ins_height_m = std::numeric_limits<double>::quiet_NaN();
   bool trust_init = false;
   bool no_refine = false;
@@ -36,32 +41,29 @@ double peak_rss_mb() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
-int run_calibrate(const CalibrateOptions& o) {
-  const std::filesystem::path out_dir = o.out;
-  io::ensure_writable_dir(out_dir);  // fail before the long work, not after
-
-  io::DatasetPaths paths{o.lidar_dir, o.poses, std::nullopt, std::nullopt};
-  if (!o.init.empty()) paths.init = o.init;
-  if (!o.fiducials.empty()) paths.fiducials = o.fiducials;
-  io::RunInfo run;
-  const Dataset data = io::load_dataset(paths, &run.load);
-  if (!o.quiet) {
-    fmt::print(stderr, "loaded {} frames ({} skipped), {} poses; frame times: {}\n", run.load.frames_used,
-               run.load.frames_total - run.load.frames_used, data.poses.size(), run.load.frame_time_source);
-    for (const std::string& w : run.load.warnings) fmt::print(stderr, "warning: {}\n", w);
-  }
-
-  PipelineConfig config = o.config.empty() ? PipelineConfig{} : load_tool_config(o.config).calibrate;
+PipelineConfig pipeline_config(const CalibrateOptions& o, PipelineConfig config) {
   if (o.trust_init) config.init.trust_init = true;
   if (o.no_refine) config.run_refine = false;
   if (o.segments >= 0) config.repeatability.segments = o.segments;
   if (std::isfinite(o.ins_height_m)) config.ins_height_m = o.ins_height_m;
+  return config;
+}
 
-  ProgressBar bar(o.quiet ? Verbosity::kQuiet : (o.verbose ? Verbosity::kVerbose : Verbosity::kNormal));
-  const FrameStore store = make_frame_store(data, config);
+Verbosity verbosity(const CalibrateOptions& o) {
+  return o.quiet ? Verbosity::kQuiet : (o.verbose ? Verbosity::kVerbose : Verbosity::kNormal);
+}
+
+// One LiDAR: the pipeline, then every output; extrinsic.json last (its presence means the whole
+// result is there).
+int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const PipelineConfig& config) {
+  const std::filesystem::path out_dir = o.out;
+  io::RunInfo run;
+  run.load = input.reports.front();
+  ProgressBar bar(verbosity(o));
+  const FrameStore store = make_frame_store(input.lidars.front(), config);
   const CalibrationResult result = run_calibration(store, config, bar.callback());
 
-  run.format_files = io::write_all_formats(out_dir, result.T_ins_lidar);
+  run.format_files = io::write_all_formats(out_dir, result.T_ins_lidar);  // calib_imu_to_velo.txt among them
   io::write_opencalib_extrinsic(out_dir / "gnss-to-lidar-extrinsic.json", result.T_ins_lidar);
   if (!o.no_report) {
     bar.update("report", 0.0);
@@ -70,12 +72,24 @@ int run_calibrate(const CalibrateOptions& o) {
   }
   bar.finish();
   run.peak_memory_mb = peak_rss_mb();
-  // extrinsic.json last: its presence means the whole result is there.
   io::write_file_atomic(out_dir / "extrinsic.json", io::result_to_json(result, run).dump(2) + "\n");
   if (!o.quiet) fmt::print("{}", io::summary_text(result, run));
   if (!o.no_report) fmt::print("report: {}\n", (out_dir / "report.html").string());
   fmt::print("result: {}\n", (out_dir / "extrinsic.json").string());
   return kExitOk;
+}
+
+// Bad input is found before the output folder exists: a failed run writes nothing.
+int run_calibrate(const CalibrateOptions& o) {
+  const ToolConfig tool = load_config(o.config);
+  const PipelineConfig config = pipeline_config(o, tool.calibrate);
+  const io::LoadedInput input = load_inputs(o.input, tool.input);
+  if (!o.quiet) {
+    for (const io::LoadReport& r : input.reports) fmt::print(stderr, "{}", io::describe_load(r));
+  }
+  io::ensure_writable_dir(o.out);
+  if (input.lidars.size() > 1) return calibrate_rig(input, config, {o.out, o.no_report, verbosity(o)});
+  return calibrate_one(o, input, config);
 }
 
 }  // namespace
@@ -85,12 +99,9 @@ Command make_calibrate_command() {
   Command command;
   command.setup = [o](CLI::App& app) {
     CLI::App* sub = app.add_subcommand("calibrate", "Estimate T_ins_lidar from a drive");
-    sub->add_option("--lidar-dir", o->lidar_dir, "folder of PCD sweeps, one per frame")->required();
-    sub->add_option("--poses", o->poses, "INS poses T_world_ins: OpenCalib per-frame lines or TUM")->required();
-    sub->add_option("--init", o->init, "initial extrinsic, OpenCalib JSON (T_lidar_ins); optional");
-    sub->add_option("--fiducials", o->fiducials, "surveyed points 'id x y z' (world frame) to fix tz");
+    add_input_options(*sub, o->input);
     sub->add_option("--ins-height-m", o->ins_height_m, "INS origin height above the ground (fixes tz without fiducials)");
-    sub->add_option("--config", o->config, "YAML file setting any parameter (see 'insalign config --dump')");
+    add_config_options(*sub, o->config);
     sub->add_option("--out", o->out, "output folder")->required();
     sub->add_flag("--trust-init", o->trust_init, "start from --init without checking it against the data");
     sub->add_flag("--no-refine", o->no_refine, "stop after stage 1");

@@ -1,14 +1,14 @@
 // insalign stitch: the deskewed, stitched map of a drive for a given extrinsic, as PCD or PLY,
 // to inspect a calibration in CloudCompare or RViz.
-#include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <memory>
 
 #include "cli/commands.hpp"
+#include "cli/input_options.hpp"
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
 #include "core/stitch.hpp"
-#include "io/dataset.hpp"
 #include "io/extrinsic_json.hpp"
 #include "io/pcd.hpp"
 #include "io/ply.hpp"
@@ -17,7 +17,9 @@ namespace insalign::cli {
 namespace {
 
 struct StitchOptions {
-  std::string lidar_dir, poses, extrinsic, out;
+  InputOptions input;
+  ConfigOptions config;
+  std::string extrinsic, out;
   double time_offset_s = 0.0;
   bool time_offset_given = false;
   double voxel_m = 0.1;
@@ -25,13 +27,17 @@ struct StitchOptions {
 };
 
 int run_stitch(const StitchOptions& o) {
-  io::DatasetPaths paths{o.lidar_dir, o.poses, std::nullopt, std::nullopt};
-  const Dataset data = io::load_dataset(paths);
+  const ToolConfig tool = load_config(o.config);
+  const io::LoadedInput input = load_inputs(o.input, tool.input);
+  if (input.lidars.size() != 1) {
+    throw InputError("--extrinsic", "", fmt::format("{} LiDARs given: stitch takes one (its --extrinsic); give one --lidar-dir "
+                                                    "or --lidar-topic", input.lidars.size()));
+  }
+  const Dataset& data = input.lidars.front();
   // The extrinsic: a result extrinsic.json ("T_ins_lidar") or an OpenCalib JSON (T_lidar_ins).
   const io::ExtrinsicFile extrinsic = io::read_extrinsic_file(o.extrinsic);
   const double time_offset_s = o.time_offset_given ? o.time_offset_s : extrinsic.time_offset_s.value_or(0.0);
-  PipelineConfig defaults;
-  const FrameStore store = make_frame_store(data, defaults);
+  const FrameStore store = make_frame_store(data, tool.calibrate);
   const std::vector<std::size_t> frames = spread_frames(store, o.max_frames, time_offset_s);
   const std::vector<Vec3f> p_world = stitch_map(store, frames, extrinsic.T_ins_lidar, time_offset_s, o.voxel_m);
   const std::filesystem::path out = o.out;
@@ -56,8 +62,8 @@ Command make_stitch_command() {
   Command command;
   command.setup = [o](CLI::App& app) {
     CLI::App* sub = app.add_subcommand("stitch", "Export the deskewed stitched map for an extrinsic (PCD or PLY)");
-    sub->add_option("--lidar-dir", o->lidar_dir, "folder of PCD sweeps")->required();
-    sub->add_option("--poses", o->poses, "INS pose file")->required();
+    add_input_options(*sub, o->input, false);
+    add_config_options(*sub, o->config);
     sub->add_option("--extrinsic", o->extrinsic, "extrinsic.json of a result, or an OpenCalib JSON")->required();
     sub->add_option("--out", o->out, "output file, .pcd or .ply")->required();
     sub->add_option("--time-offset-s", o->time_offset_s, "LiDAR to INS clock offset (default: from the result)")

@@ -1,6 +1,7 @@
 // Everything `--config` and `--set` can reach: the calibration pipeline (keys at the top:
-// `rough.filter.voxel_m`) and the simulator (`sim.seed`). It joins core and sim, so it lives
-// with the programs that use both (the command line and the benchmarks), not in io.
+// `rough.filter.voxel_m`), reading the inputs (`input.clock.enabled`) and the simulator
+// (`sim.seed`). It joins core, io and sim, so it lives with the programs that use them all (the
+// command line and the benchmarks), not in io.
 #pragma once
 
 #include <filesystem>
@@ -8,18 +9,21 @@
 #include <vector>
 
 #include "core/pipeline.hpp"
+#include "io/input_config.hpp"
 #include "sim/simulate_config.hpp"
 
 namespace insalign::cli {
 
 struct ToolConfig {
   PipelineConfig calibrate;
+  io::InputConfig input;
   sim::SimConfig sim;
 };
 
 template <class V>
 void visit_config(V& v, ToolConfig& c) {
   visit_config(v, c.calibrate);
+  v.section("input", c.input);
   v.section("sim", c.sim);
 }
 

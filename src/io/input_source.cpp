@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 #include "core/errors.hpp"
 #include "io/extrinsic_json.hpp"
 #include "io/fiducials.hpp"
@@ -24,7 +26,8 @@ BagOptions bag_options(const InputSpec& spec, const InputConfig& config) {
   o.lidar_topics = spec.lidar_topics;
   o.ins_topic = spec.ins_topic;
   o.world_frame = spec.world_frame, o.ins_frame = spec.ins_frame;
-  o.init = spec.init, o.fiducials = spec.fiducials;
+  if (spec.inits.size() == 1) o.init = spec.inits.front();  // several: set per LiDAR after loading
+  o.fiducials = spec.fiducials;
   if (config.clock_offset_s) o.ins_time_shift_s = -*config.clock_offset_s;
   return o;
 }
@@ -77,7 +80,8 @@ LoadedInput load_recording_input(const InputSpec& spec, const InputConfig& confi
     r.clock = clock;
     r.warnings.insert(r.warnings.end(), clock->warnings.begin(), clock->warnings.end());
     r.fiducials = fiducial_words(b.lidars[i].fiducials, spec.fiducials);
-    if (spec.init) r.init = "--init " + spec.init->string();
+    if (spec.inits.size() > 1) b.lidars[i].T_ins_lidar_init = read_opencalib_extrinsic(spec.inits.at(i));
+    if (!spec.inits.empty()) r.init = "--init " + spec.inits[spec.inits.size() > 1 ? i : 0].string();
     out.reports.push_back(std::move(r));
   }
   out.lidars = std::move(b.lidars);
@@ -85,15 +89,40 @@ LoadedInput load_recording_input(const InputSpec& spec, const InputConfig& confi
   return out;
 }
 
-LoadedInput single(InputKind kind, Dataset d, LoadReport r, const std::filesystem::path& folder) {
-  LoadedInput out;
-  out.kind = kind;
+std::string folder_name(const std::filesystem::path& folder) {
   std::filesystem::path p = folder.lexically_normal();
   if (p.filename().empty()) p = p.parent_path();
-  out.lidar_names.push_back(p.filename().string());
-  out.lidars.push_back(std::move(d));
-  out.reports.push_back(std::move(r));
+  return p.filename().string();
+}
+
+std::optional<std::filesystem::path> init_of(const InputSpec& spec, std::size_t lidar) {
+  if (spec.inits.empty()) return std::nullopt;
+  return spec.inits.at(lidar);
+}
+
+// Every folder with the same pose source; each LiDAR's clock decided on its own.
+LoadedInput load_pcd_folders(const InputSpec& spec, const InputConfig& config) {
+  LoadedInput out;
+  out.kind = InputKind::kPcdFolder;
+  for (std::size_t i = 0; i < spec.lidar_dirs.size(); ++i) {
+    LoadReport r;
+    out.lidars.push_back(load_dataset({spec.lidar_dirs[i], spec.poses, init_of(spec, i), spec.fiducials}, config, &r));
+    out.reports.push_back(std::move(r));
+    out.lidar_names.push_back(folder_name(spec.lidar_dirs[i]));
+  }
   return out;
+}
+
+void require_distinct_names(const LoadedInput& input, const std::string& option) {
+  for (std::size_t i = 0; i < input.lidar_names.size(); ++i) {
+    for (std::size_t j = 0; j < i; ++j) {
+      if (input.lidar_names[i] == input.lidar_names[j]) {
+        throw InputError("command line", "", fmt::format("two LiDARs are named '{}' ({} {} and {}): their outputs would "
+                                                         "collide; give folders with different names",
+                                                         input.lidar_names[i], option, j + 1, i + 1));
+      }
+    }
+  }
 }
 
 void require(bool ok, const std::string& what) {
@@ -103,14 +132,21 @@ void require(bool ok, const std::string& what) {
 }  // namespace
 
 InputKind input_kind(const InputSpec& spec) {
-  const bool pcd = !spec.lidar_dir.empty(), bag = !spec.bag.empty(), kitti = !spec.kitti_raw.empty();
+  const bool pcd = !spec.lidar_dirs.empty(), bag = !spec.bag.empty(), kitti = !spec.kitti_raw.empty();
   require(static_cast<int>(pcd) + static_cast<int>(bag) + static_cast<int>(kitti) <= 1,
           "give one input: --lidar-dir with --poses, --bag, or --kitti-raw");
   require(spec.poses.empty() || pcd, "--poses goes with --lidar-dir (a recording or a KITTI drive brings its own INS)");
   require(pcd || bag || kitti, "no input: give --lidar-dir DIR --poses FILE, --bag PATH, or --kitti-raw DRIVE_DIR");
   require(!pcd || !spec.poses.empty(), "--lidar-dir needs --poses FILE (the INS poses)");
+  for (const auto& dir : spec.lidar_dirs) require(!dir.empty(), "--lidar-dir needs a folder");
   require(bag || (spec.lidar_topics.empty() && !spec.ins_topic && spec.world_frame.empty() && spec.ins_frame.empty()),
           "--lidar-topic, --ins-topic, --world-frame and --ins-frame go with --bag");
+  const std::size_t lidars = pcd ? spec.lidar_dirs.size() : bag ? std::max<std::size_t>(1, spec.lidar_topics.size()) : 1;
+  require(spec.inits.size() <= 1 || spec.inits.size() == lidars,
+          fmt::format("{} --init for {} LiDARs: give one --init per LiDAR, in the order of {}", spec.inits.size(), lidars,
+                      pcd ? "--lidar-dir" : "--lidar-topic"));
+  require(spec.inits.size() <= lidars,
+          fmt::format("{} --init for {} LiDAR: a recording with one LiDAR topic takes one --init", spec.inits.size(), lidars));
   return pcd ? InputKind::kPcdFolder : bag ? InputKind::kRecording : InputKind::kKittiRaw;
 }
 
@@ -161,20 +197,25 @@ Dataset load_kitti_raw(const std::filesystem::path& drive_dir, const std::option
 }
 
 LoadedInput load_input(const InputSpec& spec, const InputConfig& config) {
+  LoadedInput out;
   switch (input_kind(spec)) {
-    case InputKind::kPcdFolder: {
-      LoadReport r;
-      Dataset d = load_dataset({spec.lidar_dir, spec.poses, spec.init, spec.fiducials}, config, &r);
-      return single(InputKind::kPcdFolder, std::move(d), std::move(r), spec.lidar_dir);
-    }
-    case InputKind::kRecording: return load_recording_input(spec, config);
+    case InputKind::kPcdFolder:
+      out = load_pcd_folders(spec, config);
+      break;
+    case InputKind::kRecording:
+      out = load_recording_input(spec, config);
+      break;
     case InputKind::kKittiRaw: {
       LoadReport r;
-      Dataset d = load_kitti_raw(spec.kitti_raw, spec.init, spec.fiducials, config, &r);
-      return single(InputKind::kKittiRaw, std::move(d), std::move(r), spec.kitti_raw);
+      out.kind = InputKind::kKittiRaw;
+      out.lidars.push_back(load_kitti_raw(spec.kitti_raw, init_of(spec, 0), spec.fiducials, config, &r));
+      out.reports.push_back(std::move(r));
+      out.lidar_names.push_back(folder_name(spec.kitti_raw));
+      break;
     }
   }
-  throw InputError("command line", "", "unknown input");
+  require_distinct_names(out, out.kind == InputKind::kRecording ? "--lidar-topic" : "--lidar-dir");
+  return out;
 }
 
 }  // namespace insalign::io

@@ -20,19 +20,25 @@
 namespace insalign::io {
 
 struct InputSpec {
-  std::filesystem::path lidar_dir, poses;  ///< a PCD folder and its pose source
+  /// PCD folders, one per LiDAR (a rig: each folder with the same `poses`), and their pose source.
+  std::vector<std::filesystem::path> lidar_dirs;
+  std::filesystem::path poses;
   std::filesystem::path bag;               ///< a recording
   std::vector<std::string> lidar_topics;   ///< recordings: --lidar-topic (empty: automatic)
   std::optional<std::string> ins_topic;    ///< recordings: --ins-topic
   std::string world_frame, ins_frame;      ///< recordings with TF
   std::filesystem::path kitti_raw;         ///< a KITTI raw drive folder
-  std::optional<std::filesystem::path> init, fiducials;
+  /// Initial guesses (OpenCalib JSON): none, or one per LiDAR in the order of lidar_dirs /
+  /// lidar_topics (one LiDAR chosen automatically: one).
+  std::vector<std::filesystem::path> inits;
+  std::optional<std::filesystem::path> fiducials;
 };
 
 enum class InputKind { kPcdFolder, kRecording, kKittiRaw };
 
 /// Which input `spec` names. Throws InputError naming the options when it names none, several,
-/// or a PCD folder without poses (or poses with another input).
+/// a PCD folder without poses (or poses with another input), recording options without --bag, or
+/// a number of --init that is neither 0 nor one per LiDAR.
 InputKind input_kind(const InputSpec& spec);
 
 struct LoadedInput {
@@ -43,7 +49,8 @@ struct LoadedInput {
   std::optional<BagReport> recording;    ///< recordings: what `info --bag` prints
 };
 
-/// Loads whichever input `spec` names. Throws InputError (ClockGapError for clocks nothing explains).
+/// Loads whichever input `spec` names. Throws InputError (ClockGapError for clocks nothing
+/// explains; also for two LiDARs of the same name, whose outputs would collide).
 LoadedInput load_input(const InputSpec& spec, const InputConfig& config = {});
 
 /// A KITTI raw drive: velodyne_points (per-point time from the azimuth), oxts (one clock with the
