@@ -269,6 +269,31 @@ double stated_variance(const std::vector<InsQuality>& quality, double t_s, bool 
 
 // Adds the random-walk prior, the gauge and the fixed parameters (all in units of the data
 // term scaled by 1/data_var) to the normal equations.
+// The map rotated about the world vertical by d is as crisp as before, and for a level car that
+// rotation is exactly an extrinsic yaw d plus the position correction d z x p(t) (p the INS
+// position). Only the car's roll and pitch break the tie, weakly, and through exactly what the
+// model gets wrong (attitude noise, plane fits): letting the data decide moved yaw 0.057 deg on an
+// RTK-fixed drive. So the data's information along that direction is removed (H <- P H P with P
+// projecting it out) and the random-walk prior alone decides how much of it the drift holds.
+void remove_yaw_mode(const Layout& layout, const std::vector<Vec3>& knot_p_world, MatX& H, VecX& g) {
+  const int K = layout.knots;
+  Vec3 centre = Vec3::Zero();
+  for (const Vec3& p : knot_p_world) centre += p;
+  centre /= static_cast<double>(std::max(1, K));
+  VecX u = VecX::Zero(layout.size());
+  u[5] = 1.0;  // yaw of the extrinsic (about the INS vertical), rad
+  for (int k = 0; k < K; ++k) {
+    const Vec3 m = Vec3::UnitZ().cross(knot_p_world[static_cast<std::size_t>(k)] - centre);
+    for (int i = 0; i < 3; ++i) u[layout.pos(k, i)] = m[i];
+  }
+  const double uu = u.squaredNorm();
+  const VecX Hu = H * u;
+  const double uHu = u.dot(Hu);
+  H -= (u * Hu.transpose() + Hu * u.transpose()) / uu;
+  H += (uHu / (uu * uu)) * (u * u.transpose());
+  g -= u * (u.dot(g) / uu);
+}
+
 void add_priors(const TrajectoryCorrection& s, const Layout& layout, const TrajectoryCorrectionConfig& config,
                 const std::vector<InsQuality>& quality, bool estimate_offset, MatX& H, VecX& g, double& prior_cost) {
   const int K = layout.knots;
@@ -372,6 +397,9 @@ struct Solver {
     std::vector<Vec3f> p_world;
     LocalPlanes planes;
     const PlaneThicknessConfig pc = plane_thickness_config(refine);
+    std::vector<Vec3> knot_p_world;
+    for (double t : s.t_s)
+      knot_p_world.push_back(store.poses().T_world_ins(std::clamp(t, store.poses().t_begin(), store.poses().t_end())).translation());
     for (int it = 0; it < config.max_iterations; ++it) {
       const PoseStream poses = corrected_poses(store.poses(), s);
       place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
@@ -387,6 +415,7 @@ struct Solver {
       ne.H /= data_var;
       ne.g /= data_var;
       double prior_cost = 0.0;
+      remove_yaw_mode(layout, knot_p_world, ne.H, ne.g);
       add_priors(s, layout, config, store.data().ins_quality, refine.estimate_time_offset, ne.H, ne.g, prior_cost);
       VecX dx = ne.H.ldlt().solve(-ne.g);
       // Trust region: planes re-fitted from a smeared map only point the way for small steps.
