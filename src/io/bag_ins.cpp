@@ -391,7 +391,7 @@ InsSource InsSourceReader::finish() {
   for (std::size_t i = 0; i < out.topics.size(); ++i) t.source += (i ? " + " : "") + out.topics[i];
   for (std::size_t i = 0; i < out.types.size(); ++i) t.format += (i ? " + " : "") + out.types[i];
   t.time_base = "header.stamp (the INS driver's clock)" +
-                (s.options.time_shift_s != 0.0 ? fmt::format(" + {} s", s.options.time_shift_s) : std::string());
+                (s.options.time_shift_s != 0.0 ? fmt::format(", shifted by {:+g} s onto the LiDAR clock", s.options.time_shift_s) : std::string());
   if (t.records.size() < 2) {
     throw InputError(s.r.path().string(), "",
                      fmt::format("the INS source {} ({}) gives {} usable record(s) of {} messages: too few for a trajectory",

@@ -207,7 +207,9 @@ std::vector<std::uint32_t> choose_lidar_topics(const BagReader& reader, const st
   if (requested.empty()) {
     if (clouds.size() == 1) return clouds;
     if (clouds.empty()) {
-      fail(reader, "no sensor_msgs/PointCloud2 topic with messages (topics: " + list_all_topics(reader) + ")");
+      std::string container;  // a cut-off recording says where it stops: that is usually why
+      for (const std::string& w : reader.warnings()) container += "; " + w;
+      fail(reader, "no sensor_msgs/PointCloud2 topic with messages (topics: " + list_all_topics(reader) + ")" + container);
     }
     fail(reader, fmt::format("several LiDAR topics, candidates: {}; choose with --lidar-topic", list_topics(reader, clouds)));
   }

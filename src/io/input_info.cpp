@@ -69,8 +69,9 @@ std::string choices(const InputSpec& spec) {
   return fmt::format("chosen           LiDAR by {}; INS by {}\n", lidar, ins);
 }
 
-// Topics first (they help when a choice fails), then what calibrate would read; a recording
-// without LiDAR: its INS trajectory alone; neither: the listing.
+// Topics first (they help when a choice fails), then what calibrate would read (its errors are
+// exit 2 here as there); a recording without LiDAR: its INS trajectory alone, an INS that cannot
+// be read a note (nothing would be calibrated from it); neither: the listing.
 void describe_recording_input(const InputSpec& spec, const InputConfig& config, const InfoSink& out, std::size_t sample_frames) {
   const std::unique_ptr<bag::BagReader> reader = bag::open_bag(spec.bag);
   out(describe_recording(*reader));
@@ -82,8 +83,13 @@ void describe_recording_input(const InputSpec& spec, const InputConfig& config, 
     if (clock && clock->summary != input.recording->clock.summary) out(describe_clock(*clock));  // a correction
     out(describe_drive(summarize_drive(input.lidars.front(), sample_frames)));
   } else if (has_type(*reader, false)) {
-    const BagTrajectory t = load_bag_trajectory(trajectory_options(spec, config));
-    out("no sensor_msgs/PointCloud2 topic: the INS alone\n" + describe_trajectory(t) + describe_drive(summarize_poses(t.poses.poses())));
+    out("no sensor_msgs/PointCloud2 topic: the INS alone\n");
+    try {
+      const BagTrajectory t = load_bag_trajectory(trajectory_options(spec, config));
+      out(describe_trajectory(t) + describe_drive(summarize_poses(t.poses.poses())));
+    } catch (const InputError& e) {  // nothing to calibrate here: the listing is the answer, the problem a note
+      out(fmt::format("INS              not read: {}\n", e.what()));
+    }
   } else {
     out("no sensor_msgs/PointCloud2 and no INS topic: nothing insalign reads\n");
   }
