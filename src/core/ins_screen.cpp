@@ -447,6 +447,32 @@ InsScreenResult screen_with_lidar(const FrameStore& store, const std::vector<std
   return out;
 }
 
+FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig& config, InsScreenResult& out) {
+  if (!config.from_status || store.data().ins_quality.empty()) return store;
+  const std::vector<TimeSpan> spans = status_spans(store.data().ins_quality, config.status, &out.typical_stddev_m);
+  out.spans.insert(out.spans.end(), spans.begin(), spans.end());
+  std::vector<TimeSpan> excluded = store.excluded();
+  excluded.insert(excluded.end(), spans.begin(), spans.end());
+  return store.with(store.poses(), std::move(excluded));
+}
+
+FrameStore leave_out_lidar_spans(const FrameStore& store, const Iso3& T_ins_lidar, const InsScreenConfig& config,
+                                 InsScreenResult& out) {
+  if (!config.from_lidar) return store;
+  const DriveFrames drive = drive_frames(store);
+  std::vector<std::size_t> frames;
+  for (std::size_t k : spread_over_motion(drive, config.max_frames)) frames.push_back(drive.index[k]);
+  InsScreenResult lidar = screen_with_lidar(store, frames, T_ins_lidar, 0.0, config);
+  lidar.typical_stddev_m = out.typical_stddev_m;
+  std::vector<TimeSpan> spans = out.spans;
+  spans.insert(spans.end(), lidar.spans.begin(), lidar.spans.end());
+  std::vector<TimeSpan> excluded = store.excluded();
+  excluded.insert(excluded.end(), lidar.spans.begin(), lidar.spans.end());
+  out = std::move(lidar);
+  out.spans = std::move(spans);
+  return store.with(store.poses(), std::move(excluded));
+}
+
 double spans_duration_s(std::vector<TimeSpan> spans) {
   std::sort(spans.begin(), spans.end(), [](const TimeSpan& a, const TimeSpan& b) { return a.begin_s < b.begin_s; });
   double total = 0.0, covered_to = -std::numeric_limits<double>::infinity();

@@ -68,6 +68,7 @@ struct MapResidualConfig {
 struct InsScreenConfig {
   bool from_status = true;         ///< use what the INS says of itself
   bool from_lidar = true;          ///< use the LiDAR checks (after stage 1)
+  std::size_t max_frames = 300;    ///< frames of the LiDAR checks, spread over the drive's motion
   /// Frames of the LiDAR checks (base-thinned copies thinned again: cheap, few points suffice).
   SweepFilter filter{.min_range_m = 0.0, .max_range_m = 50.0, .voxel_m = 0.3, .max_points = 6000};
   InsStatusConfig status;
@@ -112,6 +113,7 @@ template <class V>
 void visit_config(V& v, InsScreenConfig& c) {
   v("from_status", c.from_status, "leave out stretches the INS itself marks bad (solution type, stated stddev)");
   v("from_lidar", c.from_lidar, "leave out stretches the LiDAR data shows bad (scan-to-scan motion, map residual)");
+  v("max_frames", c.max_frames, "frames of the LiDAR checks, spread over the drive's motion");
   v.section("filter", c.filter);
   v.section("status", c.status);
   v.section("motion", c.motion);
@@ -156,6 +158,14 @@ std::vector<TimeSpan> status_spans(const std::vector<InsQuality>& quality, const
 /// ones the stages use) with an extrinsic near the truth. Frames are read from the store.
 InsScreenResult screen_with_lidar(const FrameStore& store, const std::vector<std::size_t>& frames,
                                   const Iso3& T_ins_lidar, double time_offset_s, const InsScreenConfig& config);
+
+/// The store with the spans the INS marks bad itself left out as well (config.from_status and a
+/// source that states its quality); the spans and the typical stated stddev go to `out`.
+FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig& config, InsScreenResult& out);
+/// The store with the spans the LiDAR checks find left out as well (config.from_lidar), on up to
+/// config.max_frames of the store's frames; the checks go to `out` (spans appended).
+FrameStore leave_out_lidar_spans(const FrameStore& store, const Iso3& T_ins_lidar, const InsScreenConfig& config,
+                                 InsScreenResult& out);
 
 /// Sum of the lengths of `spans` (merged where they overlap), s.
 double spans_duration_s(std::vector<TimeSpan> spans);

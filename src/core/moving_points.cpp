@@ -1,0 +1,227 @@
+#include "core/moving_points.hpp"
+
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+
+#include "core/deskew.hpp"
+#include "core/voxel_grid.hpp"
+
+namespace insalign {
+namespace {
+
+constexpr std::size_t kBatchFrames = 16;  // frames whose evidence is held at once before merging
+
+std::uint64_t ground_key(const Vec3f& p, double inv_cell_m) {
+  return voxel_key(VoxelCell{static_cast<std::int64_t>(std::floor(p.x() * inv_cell_m)),
+                             static_cast<std::int64_t>(std::floor(p.y() * inv_cell_m)), 0});
+}
+
+// Evidence voxel of a point at height h above (ground + clearance); h in [0, top).
+std::uint64_t evidence_key(const Vec3f& p, double h_m, double inv_voxel_m) {
+  return voxel_key(VoxelCell{static_cast<std::int64_t>(std::floor(p.x() * inv_voxel_m)),
+                             static_cast<std::int64_t>(std::floor(p.y() * inv_voxel_m)),
+                             static_cast<std::int64_t>(std::floor(h_m * inv_voxel_m))});
+}
+
+// Height above ground + clearance, or NaN when the point is not judged (no ground, too low or high).
+struct HeightAbove {
+  const std::unordered_map<std::uint64_t, float>& ground_z_m;
+  const MovingPointsConfig& c;
+  double inv_cell_m = 1.0 / c.ground_cell_m;
+  mutable std::uint64_t last_key = std::numeric_limits<std::uint64_t>::max();
+  mutable float last_z = 0.0f;
+  mutable bool last_found = false;
+  double operator()(const Vec3f& p) const {
+    const std::uint64_t key = ground_key(p, inv_cell_m);
+    if (key != last_key) {  // rays step through a cell several times in a row
+      const auto it = ground_z_m.find(key);
+      last_key = key;
+      last_found = it != ground_z_m.end();
+      if (last_found) last_z = it->second;
+    }
+    if (!last_found) return std::numeric_limits<double>::quiet_NaN();
+    const double h = p.z() - last_z - c.ground_clearance_m;
+    return h >= 0.0 && h < c.max_height_m - c.ground_clearance_m ? h : std::numeric_limits<double>::quiet_NaN();
+  }
+};
+
+struct PlacedSweep {
+  std::vector<Vec3f> p_world;
+  Vec3f origin_start = Vec3f::Zero(), origin_end = Vec3f::Zero();  // LiDAR origin at sweep start, end
+  std::vector<float> fraction;  // of the sweep, per point (0 start, 1 end)
+};
+
+PlacedSweep place(const Sweep& sweep, const PoseStream& poses, const Iso3& T_ins_lidar, double time_offset_s,
+                  double period_s) {
+  PlacedSweep out;
+  if (sweep.size() == 0 || !sweep_covered(poses, sweep, time_offset_s)) return out;
+  out.p_world = sweep_to_world(sweep, poses, T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
+  const double t_end = sweep.t_end_s + time_offset_s;
+  out.origin_end = (poses.T_world_ins(t_end) * T_ins_lidar).translation().cast<float>();
+  out.origin_start = (poses.T_world_ins(t_end - period_s) * T_ins_lidar).translation().cast<float>();
+  out.fraction.resize(sweep.size(), 1.0f);
+  if (sweep.has_time())
+    for (std::size_t i = 0; i < sweep.size(); ++i)
+      out.fraction[i] = static_cast<float>(std::clamp(1.0 + sweep.dt_s[i] / period_s, 0.0, 1.0));
+  return out;
+}
+
+// Ground height per cell: a low percentile of the heights of the sample's points in it.
+std::unordered_map<std::uint64_t, float> ground_heights(const std::vector<PlacedSweep>& frames,
+                                                        const MovingPointsConfig& c) {
+  std::unordered_map<std::uint64_t, std::vector<float>> z_of;
+  const double inv = 1.0 / c.ground_cell_m;
+  for (const PlacedSweep& f : frames)
+    for (const Vec3f& p : f.p_world)
+      if (p.allFinite()) z_of[ground_key(p, inv)].push_back(p.z());
+  std::unordered_map<std::uint64_t, float> ground;
+  ground.reserve(z_of.size());
+  for (auto& [key, z] : z_of) {
+    const std::size_t k = static_cast<std::size_t>(c.ground_percentile * static_cast<double>(z.size() - 1));
+    std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(k), z.end());
+    ground.emplace(key, z[k]);
+  }
+  return ground;
+}
+
+struct FrameEvidence {
+  std::vector<std::uint64_t> hit, free;  // sorted, unique, disjoint
+};
+
+// The voxels a frame's points land in and the voxels its rays cross short of their points.
+FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, const MovingPointsConfig& c) {
+  FrameEvidence e;
+  const double inv = 1.0 / c.voxel_m;
+  for (std::size_t i = 0; i < f.p_world.size(); ++i) {
+    const Vec3f& p = f.p_world[i];
+    if (!p.allFinite()) continue;
+    const double h = height(p);
+    if (std::isfinite(h)) e.hit.push_back(evidence_key(p, h, inv));
+    const Vec3f o = f.origin_start + f.fraction[i] * (f.origin_end - f.origin_start);
+    const Vec3f ray = p - o;
+    const double free_m = ray.norm() - c.end_margin_m;
+    const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
+    for (float s = step; s * ray.norm() < free_m; s += step) {
+      const Vec3f q = o + s * ray;
+      const double hq = height(q);
+      if (std::isfinite(hq)) e.free.push_back(evidence_key(q, hq, inv));
+    }
+  }
+  for (auto* v : {&e.hit, &e.free}) {
+    std::sort(v->begin(), v->end());
+    v->erase(std::unique(v->begin(), v->end()), v->end());
+  }
+  std::vector<std::uint64_t> free_only;
+  std::set_difference(e.free.begin(), e.free.end(), e.hit.begin(), e.hit.end(), std::back_inserter(free_only));
+  e.free = std::move(free_only);
+  return e;
+}
+
+std::unordered_map<std::uint64_t, MovingPoints::Counts> count_evidence(const std::vector<PlacedSweep>& frames,
+                                                                       const HeightAbove& height_proto,
+                                                                       const MovingPointsConfig& c) {
+  std::unordered_map<std::uint64_t, MovingPoints::Counts> counts;
+  constexpr std::uint16_t kMax = std::numeric_limits<std::uint16_t>::max();
+  for (std::size_t first = 0; first < frames.size(); first += kBatchFrames) {
+    const std::size_t n = std::min(kBatchFrames, frames.size() - first);
+    std::vector<FrameEvidence> batch(n);
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+      const HeightAbove height{height_proto.ground_z_m, c};  // its own lookup cache
+      batch[k] = frame_evidence(frames[first + k], height, c);
+    });
+    for (const FrameEvidence& e : batch) {
+      for (std::uint64_t key : e.hit) {
+        auto& n_hit = counts[key].hit;
+        if (n_hit < kMax) ++n_hit;
+      }
+      for (std::uint64_t key : e.free) {
+        auto& n_free = counts[key].free;
+        if (n_free < kMax) ++n_free;
+      }
+    }
+  }
+  return counts;
+}
+
+bool moving_space(const MovingPoints::Counts& n, const MovingPointsConfig& c) {
+  return n.free >= c.min_free_frames && n.hit <= c.max_hit_fraction * (n.hit + n.free);
+}
+
+}  // namespace
+
+MovingPoints::MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double time_offset_s,
+                           const MovingPointsConfig& config, std::unordered_map<std::uint64_t, float> ground_z_m,
+                           std::unordered_map<std::uint64_t, Counts> counts)
+    : poses_(std::move(poses)),
+      T_ins_lidar_(T_ins_lidar),
+      time_offset_s_(time_offset_s),
+      config_(config),
+      ground_z_m_(std::move(ground_z_m)),
+      counts_(std::move(counts)) {}
+
+bool MovingPoints::moving(const Vec3f& p_world) const {
+  if (!p_world.allFinite()) return false;
+  const HeightAbove height{ground_z_m_, config_};
+  const double h = height(p_world);
+  if (!std::isfinite(h)) return false;
+  const auto it = counts_.find(evidence_key(p_world, h, 1.0 / config_.voxel_m));
+  if (it == counts_.end()) return false;
+  return moving_space(it->second, config_);
+}
+
+std::vector<char> MovingPoints::keep_world(std::size_t, const std::vector<Vec3f>& p_world) const {
+  std::vector<char> keep(p_world.size(), 1);
+  for (std::size_t i = 0; i < p_world.size(); ++i) keep[i] = !moving(p_world[i]);
+  return keep;
+}
+
+std::vector<char> MovingPoints::keep(std::size_t index, const Sweep& sweep) const {
+  if (sweep.size() == 0 || !sweep_covered(poses_, sweep, time_offset_s_)) return std::vector<char>(sweep.size(), 1);
+  return keep_world(index, sweep_to_world(sweep, poses_, T_ins_lidar_, PlaceOptions{.time_offset_s = time_offset_s_}));
+}
+
+std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, const Iso3& T_ins_lidar,
+                                                       double time_offset_s, const MovingPointsConfig& config,
+                                                       MovingPointsResult& result) {
+  const auto start = std::chrono::steady_clock::now();
+  result = {};
+  if (!config.enabled) return nullptr;
+  const DriveFrames drive = drive_frames(store, time_offset_s);
+  std::vector<std::size_t> picks;
+  for (std::size_t k : spread_over_motion(drive, config.max_frames)) picks.push_back(drive.index[k]);
+  if (picks.size() < 2 * config.min_free_frames) return nullptr;
+  SweepFilter filter = config.filter;
+  filter.min_range_m = std::max(filter.min_range_m, store.base_filter().min_range_m);
+  const FrameStore unmasked = store.with_mask(nullptr);
+  const std::vector<Sweep> sweeps = unmasked.thinned(picks, filter);
+  std::vector<PlacedSweep> placed(sweeps.size());
+  tbb::parallel_for(std::size_t{0}, sweeps.size(), [&](std::size_t k) {
+    placed[k] = place(sweeps[k], store.poses(), T_ins_lidar, time_offset_s, store.sweep_period_s());
+  });
+  std::unordered_map<std::uint64_t, float> ground = ground_heights(placed, config);
+  std::unordered_map<std::uint64_t, MovingPoints::Counts> counts =
+      count_evidence(placed, HeightAbove{ground, config}, config);
+  for (const auto& [key, n] : counts) {
+    if (n.free < config.min_free_frames) continue;
+    ++result.voxels_judged;
+    result.voxels_moving += n.hit > 0 && moving_space(n, config);
+  }
+  auto mask = std::make_shared<const MovingPoints>(store.poses(), T_ins_lidar, time_offset_s, config,
+                                                   std::move(ground), std::move(counts));
+  for (const PlacedSweep& f : placed)
+    for (const Vec3f& p : f.p_world) {
+      result.points_checked += p.allFinite();
+      result.points_moving += mask->moving(p);
+    }
+  result.applied = true;
+  result.mask = mask;
+  result.frames_used = placed.size();
+  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return mask;
+}
+
+}  // namespace insalign
