@@ -65,6 +65,18 @@ void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);
 }
 
+// Bad INS stretches the LiDAR shows and points on moving things, found with stage 1's extrinsic
+// and left out of every later step (the spans the INS marks bad itself are left out before).
+FrameStore screen_after_stage1(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
+                               CalibrationResult& r) {
+  progress("screen", 0.0);
+  FrameStore out = leave_out_lidar_spans(store, r.T_ins_lidar, config.ins_screen, r.ins_screen);
+  if (auto mask = find_moving_points(out, r.T_ins_lidar, 0.0, config.moving, r.moving)) out = out.with_mask(mask);
+  r.excluded = out.excluded();
+  progress("screen", 1.0);
+  return out;
+}
+
 }  // namespace
 
 FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
@@ -73,14 +85,15 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   return FrameStore(data, base, config.frames);
 }
 
-CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
+CalibrationResult run_calibration(const FrameStore& input, const PipelineConfig& config,
                                   const PipelineProgress& progress_in) {
   const auto start = std::chrono::steady_clock::now();
   const auto progress = [&](std::string_view step, double fraction) {
     if (progress_in) progress_in(step, fraction);
   };
-  const Dataset& data = store.data();
+  const Dataset& data = input.data();
   CalibrationResult r;
+  const FrameStore store = leave_out_status_spans(input, config.ins_screen, r.ins_screen);
 
   // 0. Can this drive determine anything? Decided from the poses alone, before loading sweeps.
   r.motion = check_motion(store.poses(), data.frames.frames, config.motion);
@@ -94,22 +107,25 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   if (r.init.source == InitSource::kDataOverridesInit) r.warnings.push_back(r.init.explanation);
 
   // 2. Stage 1.
-  const FrameGroups groups = rough_frame_groups(store, config.rough);
+  FrameGroups groups = rough_frame_groups(store, config.rough);
   r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, config.rough, [&](double f) { progress("rough", f); });
   stop_if_undetermined(r.rough.outcome);
   r.T_ins_lidar = r.rough.T_ins_lidar;
   r.determined = r.rough.outcome.determined;
   r.stddev = r.rough.outcome.stddev;
+  const FrameStore screened = screen_after_stage1(store, config, progress, r);
+  if (screened.excluded().size() != store.excluded().size())
+    groups = rough_frame_groups(screened, config.rough);  // the repeatability study's stage 1 leaves them out too
 
   // 3. Stage 2 (with an early stage 3 first).
   const std::vector<std::size_t> refine_frames =
-      config.run_refine ? insalign::refine_frames(store, config.refine, 0.0,
+      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0,
                                                   config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0)
                         : std::vector<std::size_t>{};
-  if (config.run_refine) run_refine(store, refine_frames, config, progress, r);
+  if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
   std::optional<FrameStore> corrected;
-  if (config.run_refine) corrected = run_trajectory_correction(store, config, progress, r);
-  const FrameStore& placed = corrected ? *corrected : store;  // the poses the later steps use
+  if (config.run_refine) corrected = run_trajectory_correction(screened, config, progress, r);
+  const FrameStore& placed = corrected ? *corrected : screened;  // the poses the later steps use
 
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);

@@ -13,7 +13,9 @@
 #include "core/frame_store.hpp"
 #include "core/frames.hpp"
 #include "core/global_init.hpp"
+#include "core/ins_screen.hpp"
 #include "core/motion_check.hpp"
+#include "core/moving_points.hpp"
 #include "core/observability.hpp"
 #include "core/refine.hpp"
 #include "core/repeatability.hpp"
@@ -31,6 +33,8 @@ struct PipelineConfig {
   RoughConfig rough;
   RefineConfig refine;
   TrajectoryCorrectionConfig trajectory;  ///< the INS trajectory corrected with the extrinsic
+  InsScreenConfig ins_screen;             ///< bad INS stretches left out of every stage
+  MovingPointsConfig moving;              ///< points on moving things left out of every stage
   ZConfig z;
   RepeatabilityConfig repeatability;
   bool run_refine = true;                  ///< stage 2 (false: stop after stage 1)
@@ -48,6 +52,8 @@ void visit_config(V& v, PipelineConfig& c) {
   v.section("rough", c.rough);
   v.section("refine", c.refine);
   v.section("trajectory", c.trajectory);
+  v.section("ins_screen", c.ins_screen);
+  v.section("moving", c.moving);
   v.section("z", c.z);
   v.section("repeatability", c.repeatability);
 }
@@ -60,6 +66,11 @@ struct CalibrationResult {
   /// After stage 2: the INS trajectory correction and the joint extrinsic; when applied, stage 3
   /// and the repeatability study place sweeps with the corrected poses.
   TrajectoryCorrection trajectory;
+  /// Bad INS stretches: the INS status spans (before any stage) and the LiDAR checks (after
+  /// stage 1); `excluded` = every span stages 2, 3 and the repeatability study left out.
+  InsScreenResult ins_screen;
+  std::vector<TimeSpan> excluded;
+  MovingPointsResult moving;            ///< points on moving things, masked from stage 2 on
   ZResult z;
   RepeatabilityResult repeatability;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< final estimate

@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include "core/deskew.hpp"
@@ -115,8 +116,13 @@ std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>&
     // Raw: a fiducial's local plane averages every point near it (the store's copies are thinned).
     const Sweep sweep = store.data().frames.load(frames[f]);
     if (!sweep_covered(store.poses(), sweep, time_offset_s)) return;
-    const std::vector<Vec3f> p_world =
+    std::vector<Vec3f> p_world =
         sweep_to_world(sweep, store.poses(), T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
+    if (store.mask()) {  // points on moving things (a car over a fiducial lifts its ground)
+      const std::vector<char> keep = store.mask()->keep_world(frames[f], p_world);
+      for (std::size_t i = 0; i < p_world.size(); ++i)
+        if (!keep[i]) p_world[i] = Vec3f::Constant(std::numeric_limits<float>::quiet_NaN());
+    }
     const Vec3 up = frame_pose(sweep, store.poses(), time_offset_s).linear().col(2);
     hand_out(sweep, p_world, up, targets, wanted, min_range_sq, per_frame[f]);
   });

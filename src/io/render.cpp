@@ -257,7 +257,7 @@ MapFrame frame_map(const std::vector<Vec3f>& p_world) {
 }
 
 Image render_map_view(const std::vector<Vec3f>& p_world, const MapFrame& frame, MapView view, int width_px,
-                      int min_height_px) {
+                      int min_height_px, const std::vector<Vec3f>* p_marked) {
   const int u_axis = view == MapView::kSide ? 1 : 0;
   const int v_axis = view == MapView::kTop ? 1 : 2;
   const double u0 = frame.min_m[u_axis], du = std::max(1e-3, frame.max_m[u_axis] - frame.min_m[u_axis]);
@@ -297,6 +297,12 @@ Image render_map_view(const std::vector<Vec3f>& p_world, const MapFrame& frame, 
       const double alpha = 0.3 + 0.7 * std::min(1.0, std::log1p(count[i]) / std::log1p(saturation));
       img.blend(x, y, height_colour((z - zc0) / (zc1 - zc0)), alpha);
     }
+  }
+  for (const Vec3f& p : p_marked ? *p_marked : std::vector<Vec3f>{}) {
+    if (!p.allFinite()) continue;
+    const int x = static_cast<int>((p[u_axis] - u0) * su);
+    const int y = H - 1 - static_cast<int>((p[v_axis] - v0) * sv);
+    if (x >= 0 && y >= 0 && x < W && y < H) img.blend(x, y, kMarkedColour, 0.8);
   }
   const char* name = view == MapView::kTop ? "top view (x right, y up)"
                      : view == MapView::kFront ? "front view (x right, z up)"

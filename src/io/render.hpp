@@ -40,6 +40,7 @@ void write_png(const std::filesystem::path& path, const Image& image);
 
 /// Height colour map (dark blue - teal - green - yellow), t in [0, 1] (clamped).
 Rgb height_colour(double t);
+inline constexpr Rgb kMarkedColour{230, 0, 200};
 
 /// The framing shared by all map views of a report: an axis-aligned box in the world frame with
 /// a small fraction of outlying points clipped, and the height range of the colour map.
@@ -59,8 +60,9 @@ enum class MapView {
 /// view) or by its height (side views) and shaded by point density, with a scale bar.
 /// width_px is the image width; the height follows from the frame at equal scale (side views are
 /// stretched vertically to at least min_height_px, which the image then says).
+/// p_marked (optional): points drawn on top in kMarkedColour (magenta: the moving things left out).
 Image render_map_view(const std::vector<Vec3f>& p_world, const MapFrame& frame, MapView view, int width_px = 900,
-                      int min_height_px = 220);
+                      int min_height_px = 220, const std::vector<Vec3f>* p_marked = nullptr);
 
 /// A thin box through the map viewed edge-on: image x along `across_axis`, image y along `up_axis`
 /// (up), points within +-half_depth_m along depth_axis = across x up.

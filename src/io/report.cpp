@@ -112,9 +112,10 @@ ReportImages write_images(const std::filesystem::path& out_dir, const ReportData
           {{MapView::kTop, "top"}, {MapView::kFront, "front"}, {MapView::kSide, "side"}}};
       for (const auto& [view, name] : views) {
         const std::string rel = base + "_" + name + ".png";
-        write_png(out_dir / rel, render_map_view(m.p_world, frame, view));
+        write_png(out_dir / rel, render_map_view(m.p_world, frame, view, 900, 220, &m.p_moving_world));
         files.images.push_back(out_dir / rel);
-        s.views.emplace_back(rel, m.label + ": " + name + " view, coloured by height");
+        s.views.emplace_back(rel, m.label + ": " + name + " view, coloured by height" +
+                                      (m.p_moving_world.empty() ? "" : "; magenta: moving things, left out"));
       }
       if (wall) {
         s.wall = section_stats(m.p_world, *wall);
@@ -178,6 +179,14 @@ std::string html_warnings(const ReportData& data) {
   for (const auto& w : data.warnings) h += "<li>" + esc(w) + "</li>\n";
   h += "</ul></div>\n";
   return h;
+}
+
+// The INS spans and the points the stages did not use, and why.
+std::string html_left_out(const ReportData& data) {
+  if (data.left_out.empty()) return "";
+  std::string h = "<h2>Left out</h2>\n<ul>\n";
+  for (const std::string& line : data.left_out) h += "<li>" + esc(line) + "</li>\n";
+  return h + "</ul>\n";
 }
 
 std::string html_inputs(const ReportData& data) {
@@ -412,7 +421,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
   h += fmt::format("<div class=\"meta\">written {:%Y-%m-%d %H:%M:%S} UTC{}</div>\n", now,
                    data.command_line.empty() ? "" : " &middot; <code>" + esc(data.command_line) + "</code>");
   // Result first: the numbers to put on the car and whether to believe them.
-  h += html_result(data) + html_warnings(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
+  h += html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
        html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
        html_repeatability(data) + html_output_files(data);
   h += "</body></html>\n";

@@ -19,6 +19,7 @@ namespace insalign::io {
 struct MapSnapshot {
   std::string label;
   std::vector<Vec3f> p_world;
+  std::vector<Vec3f> p_moving_world;  ///< points on moving things, left out by the stages (drawn apart)
 };
 
 /// One row of the per-stage table.
@@ -87,6 +88,8 @@ struct ReportData {
   std::optional<ObservabilityReport> observability;
   std::optional<RepeatabilityReport> repeatability;
   std::vector<std::string> warnings;
+  /// What the stages left out: INS spans (when, who found them, why) and moving points.
+  std::vector<std::string> left_out;
   std::vector<std::pair<std::string, std::string>> output_files;  ///< (file name relative to the report, what)
   std::string command_line;
 };

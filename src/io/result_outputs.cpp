@@ -130,6 +130,53 @@ json repeatability_json(const RepeatabilityResult& rep) {
           {"wall_time_s", rep.wall_time_s}};
 }
 
+// Every INS span left out, with who found it and why; the LiDAR checks' thresholds; the mask.
+json screen_json(const CalibrationResult& r) {
+  json spans = json::array();
+  for (const TimeSpan& span : r.excluded)
+    spans.push_back({{"begin_s", span.begin_s},
+                     {"end_s", span.end_s},
+                     {"duration_s", span.end_s - span.begin_s},
+                     {"kind", std::string(enum_name(span.kind))},
+                     {"source", std::string(enum_name(span.source))},
+                     {"reason", span.reason}});
+  const InsScreenResult& s = r.ins_screen;
+  std::size_t pairs_used = 0, frames_used = 0;
+  for (const PairCheck& p : s.pairs) pairs_used += p.used;
+  for (const FrameOffset& f : s.offsets) frames_used += f.used;
+  const MovingPointsResult& m = r.moving;
+  return {{"ins_spans_left_out", spans},
+          {"ins_time_left_out_s", spans_duration_s(r.excluded)},
+          {"ins_checks",
+           {{"typical_stated_horizontal_stddev_m", number(s.typical_stddev_m)},
+            {"scan_pairs_used", pairs_used},
+            {"scan_pair_threshold_m", s.jump_threshold_m},
+            {"map_frames_used", frames_used},
+            {"map_offset_threshold_m", s.offset_threshold_m},
+            {"wall_time_s", s.wall_time_s}}},
+          {"moving_points",
+           {{"applied", m.applied},
+            {"sample_frames", m.frames_used},
+            {"voxels_judged", m.voxels_judged},
+            {"voxels_moving", m.voxels_moving},
+            {"sample_points", m.points_checked},
+            {"sample_points_left_out", m.points_moving},
+            {"wall_time_s", m.wall_time_s}}}};
+}
+
+// The INS position correction found with the extrinsic: knots (INS clock) and values (world, m).
+json trajectory_correction_json(const TrajectoryCorrection& c) {
+  json knots = json::array();
+  for (std::size_t k = 0; k < c.t_s.size(); ++k)
+    knots.push_back({{"t_s", c.t_s[k]}, {"position_m", {c.position_m[k].x(), c.position_m[k].y(), c.position_m[k].z()}}});
+  return {{"outcome", outcome_json(c.outcome)},
+          {"applied", c.applied},
+          {"decision", c.decision},
+          {"correction_rms_m", c.correction_rms_m},
+          {"plane_thickness_rms_m", {{"ins_poses", c.cost_ins_rms_m}, {"corrected_poses", c.cost_corrected_rms_m}}},
+          {"knots", knots}};
+}
+
 std::string dof_value(int i, const Iso3& T) {
   const Vec3 t = T.translation();
   const Vec3 rpy = rpy_from_rotation(T.linear()) * kDegPerRad;
@@ -140,6 +187,33 @@ std::string dof_value(int i, const Iso3& T) {
 std::string dof_stddev(int i, const Vec6& stddev) {
   if (!std::isfinite(stddev[i])) return "-";
   return fmt::format("{:.4f}", i < 3 ? stddev[i] : stddev[i] * kDegPerRad);
+}
+
+double data_start_s(const FrameStore& store) {
+  const auto& frames = store.data().frames.frames;
+  return frames.empty() ? 0.0 : frames.front().t_end_s;
+}
+
+// The map's points on moving things moved to their own list (drawn in another colour).
+void split_moving(const PointMask& mask, MapSnapshot& map) {
+  const std::vector<char> keep = mask.keep_world(0, map.p_world);
+  std::vector<Vec3f> kept;
+  for (std::size_t i = 0; i < map.p_world.size(); ++i) (keep[i] ? kept : map.p_moving_world).push_back(map.p_world[i]);
+  map.p_world = std::move(kept);
+}
+
+// What the stages did not use: the INS spans (and why) and the points on moving things.
+std::string left_out_text(const CalibrationResult& r) {
+  std::string s;
+  if (!r.excluded.empty())
+    s += fmt::format("\nINS left out: {} spans, {:.1f} s\n", r.excluded.size(), spans_duration_s(r.excluded));
+  for (const TimeSpan& span : r.excluded)
+    s += fmt::format("  {:.3f} - {:.3f} s ({:.1f} s, {}): {}\n", span.begin_s, span.end_s, span.end_s - span.begin_s,
+                     enum_name(span.source), span.reason);
+  if (r.moving.applied && r.moving.points_checked > 0)
+    s += fmt::format("moving things: {:.2f}% of the sampled points left out ({} voxels of moving space)\n",
+                     100.0 * r.moving.points_moving / r.moving.points_checked, r.moving.voxels_moving);
+  return s;
 }
 
 }  // namespace
@@ -165,6 +239,7 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   out["stages"] = {{"init", init_json(r.init)}, {"rough", rough_json(r.rough)}, {"z", z_json(r.z)}};
   if (r.refine) out["stages"]["refine"] = refine_json(*r.refine);
   out["repeatability"] = repeatability_json(r.repeatability);
+  out["left_out"] = screen_json(r);
   out["motion"] = {{"distance_m", r.motion.distance_m},
                    {"heading_change_deg", r.motion.heading_change_deg},
                    {"lever_arm_sensitivity", r.motion.lever_arm_sensitivity},
@@ -234,6 +309,20 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
     report.repeatability = rep;
   }
   report.warnings = r.warnings;
+  const double t0 = data_start_s(store);
+  if (r.trajectory.outcome.ok()) {
+    TrajectoryCorrectionReport tc{r.trajectory.applied, r.trajectory.decision, {}, r.trajectory.position_m};
+    for (double t : r.trajectory.t_s) tc.t_s.push_back(t - r.trajectory.time_offset_s - t0);
+    report.trajectory_correction = tc;
+  }
+  for (const TimeSpan& span : r.excluded)
+    report.left_out.push_back(fmt::format("INS {:.1f}-{:.1f} s after the first frame ({:.1f} s), found by {}: {}",
+                                          span.begin_s - t0, span.end_s - t0, span.end_s - span.begin_s,
+                                          enum_name(span.source), span.reason));
+  if (r.moving.applied && r.moving.points_checked > 0)
+    report.left_out.push_back(fmt::format("points on moving things (space seen empty at other times): {:.2f}% of the "
+                                          "sampled points, magenta on the final map",
+                                          100.0 * r.moving.points_moving / r.moving.points_checked));
   for (const auto& f : run.format_files) report.output_files.push_back({f.filename().string(), "extrinsic for other tools"});
   report.output_files.push_back({"extrinsic.json", "the result with uncertainties and per-stage metrics"});
   report.output_files.push_back({"gnss-to-lidar-extrinsic.json", "OpenCalib JSON (T_lidar_ins)"});
@@ -245,8 +334,9 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
   for (std::size_t i = 0; i < snapshots.size(); ++i) {
     if (progress) progress(static_cast<double>(i) / snapshots.size());
     const auto& [T, offset] = snapshots[i].second;
-    report.maps.push_back({snapshots[i].first, stitch_map(store, frames, T, offset, 0.05)});
+    report.maps.push_back({snapshots[i].first, stitch_map(store, frames, T, offset, 0.05), {}});
   }
+  if (r.moving.mask) split_moving(*r.moving.mask, report.maps.back());
   return report;
 }
 
@@ -276,6 +366,7 @@ std::string summary_text(const CalibrationResult& r, const RunInfo& run) {
   }
   s += fmt::format("  total          {:>7.2f} s  (loading included; {} sweeps decoded), peak memory {:.0f} MB\n",
                    r.wall_time_s, r.frames_decoded, run.peak_memory_mb);
+  s += left_out_text(r);
   for (const std::string& w : r.warnings) s += "warning: " + w + "\n";
   return s;
 }
