@@ -85,16 +85,9 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   return FrameStore(data, base, config.frames);
 }
 
-CalibrationResult run_calibration(const FrameStore& input, const PipelineConfig& config,
-                                  const PipelineProgress& progress_in) {
-  const auto start = std::chrono::steady_clock::now();
-  const auto progress = [&](std::string_view step, double fraction) {
-    if (progress_in) progress_in(step, fraction);
-  };
-  const Dataset& data = input.data();
-  CalibrationResult r;
-  const FrameStore store = leave_out_status_spans(input, config.ins_screen, r.ins_screen);
-
+FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
+                      CalibrationResult& r, bool stage1_may_fail) {
+  const Dataset& data = store.data();
   // 0. Can this drive determine anything? Decided from the poses alone, before loading sweeps.
   r.motion = check_motion(store.poses(), data.frames.frames, config.motion);
   if (!r.motion.ok) throw UnobservableError(r.motion.explanation);
@@ -109,24 +102,15 @@ CalibrationResult run_calibration(const FrameStore& input, const PipelineConfig&
   // 2. Stage 1.
   FrameGroups groups = rough_frame_groups(store, config.rough);
   r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, config.rough, [&](double f) { progress("rough", f); });
-  stop_if_undetermined(r.rough.outcome);
+  if (!stage1_may_fail) stop_if_undetermined(r.rough.outcome);
   r.T_ins_lidar = r.rough.T_ins_lidar;
   r.determined = r.rough.outcome.determined;
   r.stddev = r.rough.outcome.stddev;
-  const FrameStore screened = screen_after_stage1(store, config, progress, r);
-  if (screened.excluded().size() != store.excluded().size())
-    groups = rough_frame_groups(screened, config.rough);  // the repeatability study's stage 1 leaves them out too
+  return groups;
+}
 
-  // 3. Stage 2 (with an early stage 3 first).
-  const std::vector<std::size_t> refine_frames =
-      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0,
-                                                  config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0)
-                        : std::vector<std::size_t>{};
-  if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
-  std::optional<FrameStore> corrected;
-  if (config.run_refine) corrected = run_trajectory_correction(screened, config, progress, r);
-  const FrameStore& placed = corrected ? *corrected : screened;  // the poses the later steps use
-
+void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
+                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);
   r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
@@ -146,6 +130,32 @@ CalibrationResult run_calibration(const FrameStore& input, const PipelineConfig&
     progress("repeatability", 1.0);
     apply_repeatability(r.repeatability, r);
   }
+}
+
+CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
+                                  const PipelineProgress& progress_in) {
+  const auto start = std::chrono::steady_clock::now();
+  const PipelineProgress progress = [&](std::string_view step, double fraction) {
+    if (progress_in) progress_in(step, fraction);
+  };
+  CalibrationResult r;
+  const FrameStore status_screened = leave_out_status_spans(store, config.ins_screen, r.ins_screen);
+  FrameGroups groups = run_start(status_screened, config, progress, r);  // steps 0-2
+  const FrameStore screened = screen_after_stage1(status_screened, config, progress, r);
+  if (screened.excluded().size() != status_screened.excluded().size())
+    groups = rough_frame_groups(screened, config.rough);  // the repeatability study's stage 1 leaves them out too
+
+  // 3. Stage 2 (with an early stage 3 first).
+  const std::vector<std::size_t> refine_frames =
+      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0,
+                                                  config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0)
+                        : std::vector<std::size_t>{};
+  if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
+  std::optional<FrameStore> corrected;
+  if (config.run_refine) corrected = run_trajectory_correction(screened, config, progress, r);
+  const FrameStore& placed = corrected ? *corrected : screened;  // the poses the later steps use
+
+  run_finish(placed, groups, refine_frames, config, progress, r);  // steps 4-5
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);
   return r;

@@ -93,6 +93,16 @@ using PipelineProgress = std::function<void(std::string_view step, double fracti
 /// The store every stage reads: the frames thinned once by the finest filter any stage uses.
 FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config);
 
+/// Steps 0-2 of run_calibration (motion check, start, stage 1) filling `r`; returns stage 1's
+/// frame groups. Throws as run_calibration does, except for an undetermined stage 1 when
+/// stage1_may_fail (a rig's joint stage 2 may still determine it: r.rough.outcome says so).
+FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
+                      CalibrationResult& r, bool stage1_may_fail = false);
+/// Steps 4-5 after stage 2: stage 3 on `placed` (the store whose poses the result uses) and the
+/// repeatability study when config.repeatability asks for it.
+void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
+                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r);
+
 /// Runs everything on the store's frames. Throws UnobservableError (with which DOFs and why) when
 /// the drive cannot determine the extrinsic; tz alone undetermined is not an error (it is reported).
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,

@@ -226,6 +226,9 @@ json extrinsic_fields(const Iso3& T_ins_lidar) {
           {"quaternion_wxyz", json::array({q.w(), q.x(), q.y(), q.z()})}};
 }
 
+json dof_json(const Vec6& m_rad) { return dof_map(m_rad); }
+json determined_json(const std::array<bool, 6>& determined) { return determined_map(determined); }
+
 json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   json out = extrinsic_fields(r.T_ins_lidar);
   out["time_offset_s"] = r.time_offset_s;

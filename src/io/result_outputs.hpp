@@ -26,6 +26,11 @@ struct RunInfo {
 /// The extrinsic alone in the result shape: T_ins_lidar, translation_m, rpy_deg, quaternion_wxyz.
 nlohmann::json extrinsic_fields(const Iso3& T_ins_lidar);
 
+/// Per DOF [tx ty tz roll pitch yaw] in m and rad as {"tx_m", ..., "yaw_deg"} (null: +inf), and
+/// the verdicts as {"tx": bool, ...}: the shapes extrinsic.json uses (rig.json too).
+nlohmann::json dof_json(const Vec6& m_rad);
+nlohmann::json determined_json(const std::array<bool, 6>& determined);
+
 nlohmann::json result_to_json(const CalibrationResult& result, const RunInfo& run);
 
 /// Tables from the result and the maps of the same frames at each stage's extrinsic (stitched

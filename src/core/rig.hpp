@@ -1,0 +1,65 @@
+// Several LiDARs to one INS in one run (a rig): each LiDAR its own start and stage 1, then one
+// joint stage 2 over the LiDARs whose maps overlap (all their points in one map, each through its
+// own extrinsic and time offset, so a sparse side LiDAR is tied to the dense roof map), stage 3 per
+// LiDAR, per-DOF verdicts per LiDAR and the LiDAR-to-LiDAR transforms with their uncertainty.
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "core/frame_store.hpp"
+#include "core/pipeline.hpp"
+
+namespace insalign {
+
+/// What the rig run adds to one LiDAR's CalibrationResult.
+struct RigLidar {
+  std::string name;
+  CalibrationResult result;        ///< as run_calibration returns it (refine: its part of the joint stage 2)
+  std::size_t group = 0;           ///< LiDARs with the same group were refined in one map
+  std::vector<std::string> joint_with;  ///< the other LiDARs of its group (empty: refined alone)
+  std::string joint_note;          ///< "refined jointly with ..." or "overlaps no other LiDAR: refined alone"
+  /// Per DOF: determined by stage 1 alone (what a single-LiDAR run would say), and by the rig.
+  std::array<bool, 6> determined_alone{};
+  /// Stage 2's formal stddev (m, rad), marginal of the joint covariance (before any widening).
+  Vec6 formal_stddev = Vec6::Constant(std::numeric_limits<double>::infinity());
+};
+
+/// T_a_b = T_ins_a^-1 T_ins_b (maps LiDAR b's coordinates into LiDAR a's) with its uncertainty.
+struct LidarPair {
+  std::size_t a = 0, b = 0;
+  Iso3 T_a_b = Iso3::Identity();
+  /// 1-sigma [tx ty tz (m, in frame a), rotation about a's x y z (rad)]: the LiDARs' final
+  /// stddevs with the joint stage 2's correlations (independent across groups); +inf where a
+  /// DOF of either LiDAR is not determined.
+  Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());
+  Mat6 covariance = Mat6::Zero();  ///< of that 6-vector (rotation as R' = exp(phi) R_a_b)
+};
+
+struct RigResult {
+  std::vector<RigLidar> lidars;
+  /// overlap[a][b]: occupied voxels (config.refine.joint) shared by a's and b's stage-1 maps over
+  /// the smaller map's count.
+  std::vector<std::vector<double>> overlap;
+  std::vector<LidarPair> pairs;    ///< every a < b
+  std::vector<std::string> warnings;
+  double joint_wall_time_s = 0.0;  ///< stage 2 over all groups
+  double wall_time_s = 0.0;
+};
+
+/// Calibrates every LiDAR of the rig (stores[i] named names[i], each with its own poses, clock
+/// and initial guess). Throws UnobservableError naming the LiDAR when one cannot be determined
+/// even jointly (tz alone is reported, not thrown, as for one LiDAR), InputError on mismatched
+/// arguments. progress gets "<name>: <step>" for the per-LiDAR steps and "joint" for stage 2.
+RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::vector<std::string>& names,
+                              const PipelineConfig& config, const PipelineProgress& progress = {});
+
+/// The overlap measure of JointConfig between the maps of two LiDARs (stitched, world frame).
+double map_overlap(const std::vector<Vec3f>& a_world, const std::vector<Vec3f>& b_world, double voxel_m);
+
+/// T_a_b and its covariance from both extrinsics and the 12x12 covariance of their INS-frame
+/// perturbations [dt_a, w_a, dt_b, w_b] (the parameterisation of refine.hpp).
+LidarPair lidar_pair(const Iso3& T_ins_a, const Iso3& T_ins_b, const Eigen::Matrix<double, 12, 12>& covariance);
+
+}  // namespace insalign
