@@ -1,0 +1,347 @@
+// The input options end to end through the real `insalign` binary: simulated drives written as
+// each recording format (`simulate --format`), calibrated with `calibrate --bag` from the
+// simulator's wrong guess against ground_truth.json; `info --bag` on the real bags of the shared
+// data; bad input (cut-off recording, missing or ambiguous topic, clocks apart) exits 2 and
+// writes nothing. Drives are short and sparse (VLP-16 at 2 deg, 15 s) to keep each run a few
+// seconds of CPU.
+#include <fmt/format.h>
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <tuple>
+#include <utility>
+#include <vector>
+
+#include "core/geometry.hpp"
+#include "io/bag/bag_reader.hpp"
+#include "io/bag/bag_writer.hpp"
+#include "io/bag_topics.hpp"
+#include "io/extrinsic_json.hpp"
+#include "io/formats.hpp"
+#include "io/read_file.hpp"
+
+namespace insalign {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path fresh_dir(const std::string& tag) {
+  const fs::path dir = fs::temp_directory_path() / ("insalign_cli_inputs_" + tag + "_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+/// Exit code and stdout + stderr of a command line.
+std::pair<int, std::string> run(const std::string& args) {
+  const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "r");
+  if (pipe == nullptr) return {-1, "popen failed"};
+  std::string out;
+  char buf[4096];
+  while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
+  const int status = ::pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+/// `simulate --format ...` of the short sparse drive into dir; returns the recording's path.
+fs::path simulate(const fs::path& dir, const std::string& format, const std::string& convention, const std::string& ins,
+                  const std::string& extra = "--duration-s 15") {
+  const auto [rc, out] = run("simulate --out " + dir.string() + " --format " + format + " --lidar-convention " + convention +
+                             " --ins-message " + ins + " --lidar vlp16 --azimuth-step-deg 2 --seed 1 --quiet " + extra);
+  EXPECT_EQ(rc, 0) << out;
+  for (const char* name : {"drive.bag", "drive.mcap", "drive"}) {
+    if (fs::exists(dir / name)) return dir / name;
+  }
+  ADD_FAILURE() << "no recording in " << dir << "\n" << out;
+  return dir / "drive";
+}
+
+// ---------------------------------------------------------------- calibrate --bag, each format
+
+struct BagCase {
+  const char* format;
+  const char* convention;
+  const char* ins;
+  const char* driver;       ///< in the detected time convention's description
+  const char* ins_kind;     ///< in extrinsic.json input.poses.format
+  bool deskewed;            ///< false: no per-point time, looser bounds (half a sweep of skew)
+};
+
+class CliCalibrateBag : public ::testing::TestWithParam<BagCase> {};
+
+TEST_P(CliCalibrateBag, WithinTheAccuracyBoundsFromTheWrongGuess) {
+  const BagCase& c = GetParam();
+  const fs::path dir = fresh_dir(std::string("cal_") + c.format + "_" + c.convention);
+  const fs::path bag = simulate(dir / "sim", c.format, c.convention, c.ins);
+  const fs::path out = dir / "out";
+  const auto [rc, text] = run("calibrate --bag " + bag.string() + " --init " + (dir / "sim" / "init-extrinsic.json").string() +
+                              " --fiducials " + (dir / "sim" / "fiducials.txt").string() + " --out " + out.string() +
+                              " --segments 0 --no-report");
+  ASSERT_EQ(rc, 0) << text;
+  // What was read is printed before the work: time convention, pose source, clocks.
+  EXPECT_TRUE(contains(text, "Input            recording: " + bag.string())) << text;
+  EXPECT_TRUE(contains(text, c.driver)) << text;
+  EXPECT_TRUE(contains(text, "Clocks ")) << text;
+
+  const io::ExtrinsicFile truth = io::read_extrinsic_file(dir / "sim" / "ground_truth.json");
+  const io::ExtrinsicFile result = io::read_extrinsic_file(out / "extrinsic.json");
+  const ExtrinsicError e = extrinsic_error(result.T_ins_lidar, truth.T_ins_lidar);
+  const Iso3 init = io::read_opencalib_extrinsic(dir / "sim" / "init-extrinsic.json");
+  EXPECT_GT(extrinsic_error(init, truth.T_ins_lidar).angle_deg, 5.0);  // a wrong start
+  std::printf("%s %s %s: |t| %.1f %.1f %.1f mm, |rpy| %.4f %.4f %.4f deg, offset %.1f ms\n", c.format, c.convention, c.ins,
+              1e3 * e.dt_m.x(), 1e3 * e.dt_m.y(), 1e3 * e.dt_m.z(), e.drpy_deg.x(), e.drpy_deg.y(), e.drpy_deg.z(),
+              1e3 * result.time_offset_s.value_or(0.0));
+  // README bounds (stage 2: 0.03 deg per axis, 1 cm in x and y; stage 3: tz within 2 cm with fiducials).
+  EXPECT_LT(e.drpy_deg.maxCoeff(), c.deskewed ? 0.03 : 0.1);
+  EXPECT_LT(e.dt_m.head<2>().maxCoeff(), c.deskewed ? 0.01 : 0.05);
+  EXPECT_LT(e.dt_m.z(), 0.02);
+  if (c.deskewed) EXPECT_LT(std::abs(result.time_offset_s.value_or(1.0) - truth.time_offset_s.value_or(0.0)), 0.002);
+
+  const nlohmann::json j = nlohmann::json::parse(io::read_file(out / "extrinsic.json"));
+  EXPECT_EQ(j["input"]["kind"], "recording");
+  EXPECT_TRUE(contains(j["input"]["frame_time_source"].get<std::string>(), c.driver)) << j["input"].dump(2);
+  EXPECT_TRUE(contains(j["input"]["poses"]["format"].get<std::string>(), c.ins_kind)) << j["input"].dump(2);
+  EXPECT_TRUE(j["input"]["clock"].is_object());
+  EXPECT_TRUE(contains(j["input"]["init"].get<std::string>(), "init-extrinsic.json"));
+  // Every calibration also writes KITTI's calib_imu_to_velo.txt (T_velo_imu): it reads back as the result.
+  const io::ReadTransform kitti = io::parse_kitti_imu_to_velo(io::read_file(out / io::kKittiFile), io::kKittiFile);
+  EXPECT_LT(extrinsic_error(kitti.T_parent_child, result.T_ins_lidar).angle_deg, 1e-9);
+  fs::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Formats, CliCalibrateBag,
+    ::testing::Values(BagCase{"mcap", "hesai", "inspva", "(Hesai, RoboSense)", "NovAtel INSPVAX", true},
+                      BagCase{"ros1", "velodyne", "navsatfix-imu", "(Velodyne)", "NavSatFix + Imu", true},
+                      BagCase{"db3", "ouster", "tf", "(Ouster)", "TF", true},
+                      BagCase{"ros1", "none", "odometry", "no per-point time field", "Odometry", false}),
+    [](const ::testing::TestParamInfo<BagCase>& info) {
+      return std::string(info.param.format) + "_" + info.param.convention;
+    });
+
+// A KITTI raw drive: sweeps without per-point time (derived from the azimuth), oxts, and
+// ../calib_imu_to_velo.txt as the wrong guess; the result is also KITTI's calib_imu_to_velo.txt.
+TEST(CliInputs, KittiRawDriveCalibratesWithinTheBounds) {
+  const fs::path dir = fresh_dir("kitti");
+  const auto [sim_rc, sim_out] = run("simulate --out " + (dir / "sim").string() +
+                                     " --poses-format kitti --lidar vlp16 --azimuth-step-deg 2 --seed 1 --duration-s 15 --quiet");
+  if (sim_rc == 2 && contains(sim_out, "--poses-format")) GTEST_SKIP() << "simulate cannot write KITTI raw here: " << sim_out;
+  ASSERT_EQ(sim_rc, 0) << sim_out;
+  fs::path drive;  // the ..._sync folder
+  for (const auto& entry : fs::directory_iterator(dir / "sim")) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_directory() && name.size() > 5 && name.substr(name.size() - 5) == "_sync") drive = entry.path();
+  }
+  ASSERT_TRUE(fs::is_directory(drive / "oxts")) << sim_out;
+  const auto [rc, text] = run("calibrate --kitti-raw " + drive.string() + " --fiducials " + (dir / "sim" / "fiducials.txt").string() +
+                              " --out " + (dir / "out").string() + " --segments 0 --no-report");
+  ASSERT_EQ(rc, 0) << text;
+  EXPECT_TRUE(contains(text, "derived from each point's azimuth")) << text;
+  EXPECT_TRUE(contains(text, "Initial guess    " + (dir / "sim" / "calib_imu_to_velo.txt").string())) << text;
+  const io::ExtrinsicFile truth = io::read_extrinsic_file(dir / "sim" / "ground_truth.json");
+  const io::ExtrinsicFile result = io::read_extrinsic_file(dir / "out" / "extrinsic.json");
+  const ExtrinsicError e = extrinsic_error(result.T_ins_lidar, truth.T_ins_lidar);
+  std::printf("kitti raw: |t| %.1f %.1f %.1f mm, |rpy| %.4f %.4f %.4f deg\n", 1e3 * e.dt_m.x(), 1e3 * e.dt_m.y(), 1e3 * e.dt_m.z(),
+              e.drpy_deg.x(), e.drpy_deg.y(), e.drpy_deg.z());
+  EXPECT_LT(e.drpy_deg.maxCoeff(), 0.03);
+  EXPECT_LT(e.dt_m.head<2>().maxCoeff(), 0.01);
+  EXPECT_LT(e.dt_m.z(), 0.02);
+  const io::ReadTransform kitti = io::parse_kitti_imu_to_velo(io::read_file(dir / "out" / io::kKittiFile), io::kKittiFile);
+  EXPECT_LT(extrinsic_error(kitti.T_parent_child, truth.T_ins_lidar).angle_deg, 0.03);
+  fs::remove_all(dir);
+}
+
+// ---------------------------------------------------------------- info --bag on real bags
+
+#ifdef INSALIGN_SHARED_DATA_DIR
+const fs::path kBags = fs::path(INSALIGN_SHARED_DATA_DIR) / "bags";
+#else
+const fs::path kBags;
+#endif
+
+std::string info_of(const fs::path& bag, const std::string& extra = "") {
+  const auto [rc, out] = run("info --bag " + bag.string() + extra);
+  EXPECT_EQ(rc, 0) << out;
+  return out;
+}
+
+void expect_lines(const std::string& out, const std::vector<std::string>& lines) {
+  for (const std::string& line : lines) EXPECT_TRUE(contains(out, line)) << line << "\n" << out;
+}
+
+TEST(CliInfoBag, RealRos1BagsListEveryTopicWithItsCount) {
+  if (kBags.empty() || !fs::exists(kBags / "ros1")) GTEST_SKIP() << "no shared bags at " << kBags;
+  for (const char* file : {"example.bag", "example-bz2.bag", "example-lz4.bag"}) {
+    SCOPED_TRACE(file);
+    const std::string out = info_of(kBags / "ros1" / file);
+    expect_lines(out, {"  /rosout  rosgraph_msgs/Log  10 msgs  (not read)", "  /tf  tf/tfMessage  2688 msgs  (INS: TF)",
+                       "  /tf_static  tf2_msgs/TFMessage  1 msgs", "  /turtle1/cmd_vel  geometry_msgs/Twist  357 msgs",
+                       "  /turtle1/color_sensor  turtlesim/Color  1351 msgs", "  /turtle1/pose  turtlesim/Pose  1344 msgs",
+                       "  /turtle2/cmd_vel  geometry_msgs/Twist  208 msgs", "  /turtle2/color_sensor  turtlesim/Color  1344 msgs",
+                       "  /turtle2/pose  turtlesim/Pose  1344 msgs", "record times 1396293887.845 .. 1396293909.545 s",
+                       "no sensor_msgs/PointCloud2 topic"});
+    // Two turtles move in /tf: the INS frame is not guessed, the note says which option settles it.
+    expect_lines(out, {"INS              not read:", "turtle1, turtle2", "--ins-frame"});
+  }
+  const std::string one = info_of(kBags / "ros1" / "example.bag", " --ins-frame turtle1");
+  expect_lines(one, {"INS TF: /tf", "first pose at 13962938", "poses          "});
+  expect_lines(info_of(kBags / "ros1" / "no-messages.bag"), {"nothing insalign reads"});
+}
+
+TEST(CliInfoBag, RealRosbag2BagsListTopicsAndTheOdometryTrajectory) {
+  if (kBags.empty() || !fs::exists(kBags / "rosbag2")) GTEST_SKIP() << "no shared bags at " << kBags;
+  const fs::path r2 = kBags / "rosbag2";
+  for (const char* folder : {"talker-db3", "talker-mcap"}) {
+    SCOPED_TRACE(folder);
+    expect_lines(info_of(r2 / folder), {"  /rosout  rcl_interfaces/msg/Log  10 msgs", "  /topic  std_msgs/msg/String  10 msgs",
+                                        "  /parameter_events  rcl_interfaces/msg/ParameterEvent  0 msgs"});
+  }
+  for (const char* folder : {"cdr-test-db3", "cdr-test-mcap"}) {
+    expect_lines(info_of(r2 / folder), {"  /test_topic  test_msgs/msg/BasicTypes  3 msgs", "  /array_topic  test_msgs/msg/Arrays  4 msgs"});
+  }
+  expect_lines(info_of(r2 / "split-db3-no-metadata"),
+               {"3 files", "  /chatter  std_msgs/msg/String  3177 msgs", "record times 1616653333.034 .. 1616653339.386 s"});
+  expect_lines(info_of(r2 / "autoware-odometry-db3"),
+               {"  /localization/kinematic_state  nav_msgs/msg/Odometry  2130 msgs  (INS: Odometry)",
+                "ins = the Odometry child frame 'base_link'", "world = 'map'",
+                "position 966.5026 1036.0884 100.0000 m, orientation (x y z w) 0.0000000 0.0000000 0.0077518 0.9999700",
+                "position 1091.8456 1090.6974 100.0000 m, orientation (x y z w) 0.0000000 0.0000000 0.7015913 0.7125796",
+                "2130 records used", "40.00 Hz", "distance       166.9 m"});
+}
+
+// ---------------------------------------------------------------- bad input: exit 2, nothing written
+
+/// The recording rewritten with every INS message's header.stamp moved by shift_s (both ROS 1 and
+/// CDR put header.stamp's seconds and nanoseconds at bytes 4..12); record times unchanged, as a
+/// recorder whose INS driver stamps another clock would write them.
+fs::path with_ins_stamps_shifted(const fs::path& bag, io::bag::BagFormat format, double shift_s, const fs::path& out) {
+  const auto reader = io::bag::open_bag(bag);
+  const auto writer = io::bag::make_bag_writer(format, out);
+  std::vector<std::tuple<std::int64_t, std::uint32_t, io::bag::MessageRef>> all;
+  for (std::uint32_t t = 0; t < reader->topics().size(); ++t) {
+    EXPECT_EQ(writer->add_topic(reader->topics()[t]), t);
+    for (const io::bag::MessageRef& m : reader->messages(t)) all.emplace_back(m.log_time_ns, t, m);
+  }
+  std::sort(all.begin(), all.end(), [](const auto& a, const auto& b) { return std::get<0>(a) < std::get<0>(b); });
+  const auto shift_ns = static_cast<std::int64_t>(shift_s * 1e9);
+  for (const auto& [log_ns, t, ref] : all) {
+    std::vector<std::uint8_t> bytes = reader->read(ref);
+    if (io::ins_source_kind(reader->topics()[t].type)) {
+      std::uint32_t sec = 0, nsec = 0;
+      std::memcpy(&sec, bytes.data() + 4, 4);
+      std::memcpy(&nsec, bytes.data() + 8, 4);
+      const std::int64_t ns = static_cast<std::int64_t>(sec) * 1000000000 + nsec + shift_ns;
+      sec = static_cast<std::uint32_t>(ns / 1000000000), nsec = static_cast<std::uint32_t>(ns % 1000000000);
+      std::memcpy(bytes.data() + 4, &sec, 4);
+      std::memcpy(bytes.data() + 8, &nsec, 4);
+    }
+    writer->write(t, log_ns, bytes);
+  }
+  writer->close();
+  return out;
+}
+
+void expect_exit_2_nothing_written(const std::string& args, const fs::path& out, const std::vector<std::string>& parts) {
+  const auto [rc, text] = run(args + " --out " + out.string());
+  EXPECT_EQ(rc, 2) << args << "\n" << text;
+  for (const std::string& p : parts) EXPECT_TRUE(contains(text, p)) << p << "\n" << text;
+  EXPECT_FALSE(fs::exists(out)) << args;
+}
+
+TEST(CliBadInput, RecordingsThatCannotBeReadExitTwoAndWriteNothing) {
+  const fs::path dir = fresh_dir("bad");
+  const fs::path bag = simulate(dir / "sim", "ros1", "ouster", "odometry", "--duration-s 4");
+  const std::string b = "calibrate --bag ";
+  // Cut off inside its first chunk: no whole message before the cut.
+  {
+    const std::string bytes = io::read_file(bag);
+    std::ofstream(dir / "cut.bag", std::ios::binary).write(bytes.data(), 200000);
+  }
+  expect_exit_2_nothing_written(b + (dir / "cut.bag").string(), dir / "out_cut",
+                                {(dir / "cut.bag").string(), "cut off", "byte 200000", "no sensor_msgs/PointCloud2"});
+  expect_exit_2_nothing_written(b + bag.string() + " --lidar-topic /nope", dir / "out_missing",
+                                {bag.string(), "/nope", "/ouster/points"});
+  expect_exit_2_nothing_written(b + bag.string() + " --ins-topic /nope", dir / "out_ins", {bag.string(), "/nope"});
+  // INS stamps 7.3 s away from the LiDAR's: no known offset explains it.
+  const fs::path apart = with_ins_stamps_shifted(bag, io::bag::BagFormat::kRos1, 7.3, dir / "apart.bag");
+  expect_exit_2_nothing_written(b + apart.string(), dir / "out_apart",
+                                {apart.string(), "7.3", "not a whole number of seconds", "LiDAR frames 1700000000.100 .. "});
+  // Two LiDAR topics: ambiguous without --lidar-topic.
+  const fs::path rig = simulate(dir / "rig", "mcap", "hesai", "odometry", "--duration-s 1 --rig top:vlp16,left:vlp16@left");
+  expect_exit_2_nothing_written(b + rig.string(), dir / "out_rig", {rig.string(), "/top", "/left", "--lidar-topic"});
+  fs::remove_all(dir);
+}
+
+TEST(CliBadInput, OptionsNamingNoneOrSeveralInputsExitTwo) {
+  const fs::path dir = fresh_dir("usage");
+  expect_exit_2_nothing_written("calibrate", dir / "o1", {"no input", "--lidar-dir", "--bag", "--kitti-raw"});
+  expect_exit_2_nothing_written("calibrate --bag x.bag --kitti-raw y", dir / "o2", {"give one input"});
+  expect_exit_2_nothing_written("calibrate --lidar-dir a --poses p --lidar-topic /points", dir / "o3", {"go with --bag"});
+  expect_exit_2_nothing_written("calibrate --lidar-dir a --lidar-dir b --poses p --init i1 --init i2 --init i3", dir / "o4",
+                                {"3 --init for 2 LiDARs", "--lidar-dir"});
+  expect_exit_2_nothing_written("calibrate --bag x.bag --poses p", dir / "o5", {"--poses goes with --lidar-dir"});
+  fs::remove_all(dir);
+}
+
+// An INS on GPS time and a LiDAR on UTC: 18 s apart, found, corrected and reported.
+TEST(CliInputs, WholeSecondClockOffsetIsDetectedAndCorrected) {
+  const fs::path dir = fresh_dir("clock18");
+  const fs::path bag = simulate(dir / "sim", "mcap", "hesai", "odometry", "--duration-s 15");
+  const fs::path shifted = with_ins_stamps_shifted(bag, io::bag::BagFormat::kMcap, 18.0, dir / "gps.mcap");
+  const auto [rc, out] = run("info --bag " + shifted.string());
+  ASSERT_EQ(rc, 0) << out;
+  expect_lines(out, {"Clocks ", "close to 18 s: GPS - UTC", "corrected (INS times shifted by -18 s) (confirmed by the LiDAR motion)",
+                     "applied        t_ins = t_lidar +18 s", "shifted by -18 s onto the LiDAR clock", "frames used 150 of 150"});
+  fs::remove_all(dir);
+}
+
+// A PCD folder whose TUM poses are stamped 18 s ahead (GPS time vs UTC): the ranges overlap, so
+// only the motion can tell; the offset is found, applied and reported. Two folders are a rig:
+// both described, one named twice is refused.
+TEST(CliInputs, PcdFolderClockOffsetFoundFromTheMotionAndRigFolders) {
+  const fs::path dir = fresh_dir("pcd_clock");
+  const auto [sim_rc, sim_out] = run("simulate --out " + (dir / "sim").string() +
+                                     " --lidar vlp16 --azimuth-step-deg 2 --seed 1 --duration-s 25 --quiet");
+  ASSERT_EQ(sim_rc, 0) << sim_out;
+  {
+    std::ifstream in(dir / "sim" / "poses_tum.txt");
+    std::ofstream out(dir / "gps_tum.txt");
+    for (std::string line; std::getline(in, line);) {
+      std::istringstream fields(line);
+      double t = 0.0;
+      std::string rest;
+      if (line.empty() || line[0] == '#' || !(fields >> t)) continue;
+      std::getline(fields, rest);
+      out << fmt::format("{:.9f}{}\n", t + 18.0, rest);
+    }
+  }
+  const std::string lidar = (dir / "sim" / "lidar").string(), poses = (dir / "gps_tum.txt").string();
+  const auto [rc, out] = run("info --lidar-dir " + lidar + " --poses " + poses);
+  ASSERT_EQ(rc, 0) << out;
+  expect_lines(out, {"Clocks ", "GPS - UTC", "applied        t_ins = t_lidar +18 s", "  evidence       LiDAR rotation angles",
+                     "format         TUM"});
+  fs::create_directory_symlink(dir / "sim" / "lidar", dir / "left");
+  const auto [rig_rc, rig] = run("info --lidar-dir " + lidar + " --lidar-dir " + (dir / "left").string() + " --poses " + poses);
+  ASSERT_EQ(rig_rc, 0) << rig;
+  expect_lines(rig, {"LiDAR            " + lidar + " (PCD folder)", "LiDAR            " + (dir / "left").string() + " (PCD folder)"});
+  const auto [twice_rc, twice] = run("info --lidar-dir " + lidar + " --lidar-dir " + lidar + " --poses " + poses);
+  EXPECT_EQ(twice_rc, 2) << twice;
+  EXPECT_TRUE(contains(twice, "two LiDARs are named 'lidar'")) << twice;
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace insalign
