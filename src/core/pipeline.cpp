@@ -1,7 +1,9 @@
 #include "core/pipeline.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fmt/format.h>
 
 #include "core/errors.hpp"
 
@@ -77,6 +79,23 @@ FrameStore screen_after_stage1(const FrameStore& store, const PipelineConfig& co
   return out;
 }
 
+// tz not fixed by stage 3: stage 2 held it where stage 1 left it, and absorbed its error in x and
+// y; their stddev carries tz's uncertainty (stage 1's, when it estimated tz, else the assumed one).
+void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t>& frames, const PipelineConfig& config,
+                          CalibrationResult& r) {
+  const double sd = r.rough.tz_estimated && std::isfinite(r.rough.outcome.stddev[2])
+                        ? std::max(r.rough.outcome.stddev[2], 0.01)
+                        : config.z.undetermined_tz_sigma_m;
+  r.tz_coupling = tz_coupling(store, frames, r.T_ins_lidar, r.time_offset_s, r.refine->time_offset_estimated,
+                              config.refine, sd);
+  if (!r.tz_coupling.ok) return;
+  for (int i : {0, 1}) r.stddev[i] = std::hypot(r.stddev[i], r.tz_coupling.stddev_added_m[i]);
+  r.warnings.push_back(fmt::format(
+      "tz is not determined (+- {:.2f} m assumed): x and y move {:.1f}, {:.1f} mm per 0.1 m of tz on this drive, and their "
+      "stddev includes that (fiducials or --ins-height-m fix tz)",
+      sd, 1e2 * std::abs(r.tz_coupling.dxy_dtz.x()), 1e2 * std::abs(r.tz_coupling.dxy_dtz.y())));
+}
+
 }  // namespace
 
 FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
@@ -130,6 +149,7 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
     progress("repeatability", 1.0);
     apply_repeatability(r.repeatability, r);
   }
+  if (!r.z.determined() && r.refine) carry_tz_uncertainty(placed, refine_frames, config, r);
 }
 
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,

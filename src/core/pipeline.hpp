@@ -21,6 +21,7 @@
 #include "core/repeatability.hpp"
 #include "core/rough.hpp"
 #include "core/trajectory_correction.hpp"
+#include "core/tz_coupling.hpp"
 #include "core/zcorrect.hpp"
 
 namespace insalign {
@@ -72,6 +73,7 @@ struct CalibrationResult {
   std::vector<TimeSpan> excluded;
   MovingPointsResult moving;            ///< points on moving things, masked from stage 2 on
   ZResult z;
+  TzCoupling tz_coupling;               ///< tz undetermined: its uncertainty carried into x and y
   RepeatabilityResult repeatability;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< final estimate
   double time_offset_s = 0.0;           ///< t_ins = t_lidar + time_offset_s

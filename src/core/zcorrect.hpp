@@ -87,6 +87,10 @@ struct ZConfig {
   /// A place whose ground height is less certain than this (ground seen on one side only, far
   /// from the INS) would only add noise: skipped.
   double max_ground_sigma_m = 0.01;
+  /// Neither fiducials nor a height prior: tz stays at its initial value, this uncertain (1 sigma);
+  /// it is carried into the stddev of x and y (see core/tz_coupling.hpp). 0.5 m: the simulator's
+  /// wrong initial guess; a guess measured on the car is better, one from a drawing may be worse.
+  double undetermined_tz_sigma_m = 0.5;
 };
 
 template <class V>
@@ -110,6 +114,7 @@ void visit_config(V& v, ZConfig& c) {
   v("ground_frames_per_sample", c.ground_frames_per_sample, "height prior: frames stitched per sample");
   v("max_ground_slope_deg", c.max_ground_slope_deg, "height prior: a steeper plane is not ground, deg");
   v("max_ground_sigma_m", c.max_ground_sigma_m, "height prior: a place whose ground height is less certain is skipped, m");
+  v("undetermined_tz_sigma_m", c.undetermined_tz_sigma_m, "no fiducials or height: tz's uncertainty, carried into the x and y stddev, m");
 }
 
 /// One fiducial's comparison with the map. Residual = fiducial z - map surface z at the

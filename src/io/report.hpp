@@ -72,6 +72,14 @@ struct RepeatabilityReport {
   Vec6 warn_above = Vec6::Zero();  ///< a spread above this is flagged (from the config), m and rad
 };
 
+/// The INS position correction estimated with the extrinsic (core/trajectory_correction).
+struct TrajectoryCorrectionReport {
+  bool applied = false;
+  std::string decision;            ///< why it was (not) applied
+  std::vector<double> t_s;         ///< knot times, seconds after the first frame
+  std::vector<Vec3> position_m;    ///< world frame: corrected = reported + this
+};
+
 struct ReportData {
   std::string title = "insalign calibration report";
   std::vector<std::pair<std::string, std::string>> input_summary;  ///< (what, value): frames, distance, ...
@@ -87,6 +95,7 @@ struct ReportData {
   std::string time_offset_note;
   std::optional<ObservabilityReport> observability;
   std::optional<RepeatabilityReport> repeatability;
+  std::optional<TrajectoryCorrectionReport> trajectory_correction;
   std::vector<std::string> warnings;
   /// What the stages left out: INS spans (when, who found them, why) and moving points.
   std::vector<std::string> left_out;

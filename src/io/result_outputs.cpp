@@ -243,6 +243,7 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   if (r.refine) out["stages"]["refine"] = refine_json(*r.refine);
   out["repeatability"] = repeatability_json(r.repeatability);
   out["left_out"] = screen_json(r);
+  out["trajectory_correction"] = trajectory_correction_json(r.trajectory);
   out["motion"] = {{"distance_m", r.motion.distance_m},
                    {"heading_change_deg", r.motion.heading_change_deg},
                    {"lever_arm_sensitivity", r.motion.lever_arm_sensitivity},
@@ -313,6 +314,11 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
   }
   report.warnings = r.warnings;
   const double t0 = data_start_s(store);
+  if (r.trajectory.outcome.ok()) {
+    TrajectoryCorrectionReport tc{r.trajectory.applied, r.trajectory.decision, {}, r.trajectory.position_m};
+    for (double t : r.trajectory.t_s) tc.t_s.push_back(t - r.trajectory.time_offset_s - t0);
+    report.trajectory_correction = tc;
+  }
   for (const TimeSpan& span : r.excluded)
     report.left_out.push_back(fmt::format("INS {:.1f}-{:.1f} s after the first frame ({:.1f} s), found by {}: {}",
                                           span.begin_s - t0, span.end_s - t0, span.end_s - span.begin_s,
