@@ -3,6 +3,7 @@
 // is refined alone and says so; the joint system's Jacobian and the LiDAR-to-LiDAR propagation are
 // checked numerically; the rig outputs read back.
 #include <gtest/gtest.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -12,6 +13,7 @@
 
 #include "core/errors.hpp"
 #include "core/rig.hpp"
+#include "io/extrinsic_json.hpp"
 #include "io/read_file.hpp"
 #include "io/rig_outputs.hpp"
 #include "test_world.hpp"
@@ -197,6 +199,41 @@ TEST(Rig, OutputsRoundTrip) {
   EXPECT_NE(html.find("rig_final_top.png"), std::string::npos);
   EXPECT_THROW(io::parse_rig_json("{\"lidars\": {\"a\": {}}}", "bad.json"), InputError);
   std::filesystem::remove_all(out);
+}
+
+// simulate --rig, then calibrate with one --lidar-dir and --init per LiDAR: rig.json read back and
+// compared with ground_truth.json's "lidars" (coarse: 2 deg columns, 40 s, two LiDARs).
+TEST(Rig, EndToEndFromTheSimulatorThroughTheCommandLine) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("insalign_rig_e2e_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  const auto run = [](const std::string& args) {
+    const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
+    FILE* pipe = ::popen(cmd.c_str(), "r");
+    std::string out;
+    char buf[4096];
+    while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
+    const int status = ::pclose(pipe);
+    return std::pair<int, std::string>{WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+  };
+  const std::string sim = (dir / "sim").string();
+  auto [rc, out] = run("simulate --quiet --seed 5 --rig top:pandar64,left:vlp16@left --azimuth-step-deg 1 --duration-s 40 --out " + sim);
+  ASSERT_EQ(rc, 0) << out;
+  std::tie(rc, out) = run("calibrate --quiet --no-report --segments 0 --lidar-dir " + sim + "/lidar/top --lidar-dir " + sim +
+                          "/lidar/left --poses " + sim + "/poses_tum.txt --init " + sim + "/init-extrinsic-top.json --init " +
+                          sim + "/init-extrinsic-left.json --fiducials " + sim + "/fiducials.txt --out " + (dir / "out").string());
+  ASSERT_EQ(rc, 0) << out;
+  const io::RigFile rig = io::parse_rig_json(io::read_file(dir / "out/rig.json"), "rig.json");
+  const nlohmann::json truth = nlohmann::json::parse(io::read_file(dir / "sim/ground_truth.json"));
+  ASSERT_EQ(rig.lidars.size(), 2u);
+  for (const io::RigFileLidar& l : rig.lidars) {
+    const Iso3 T_true = io::transform_from_json(truth.at("lidars").at(l.name).at("T_ins_lidar"), "ground_truth.json");
+    const ExtrinsicError e = extrinsic_error(l.T_ins_lidar, T_true);
+    std::printf("%s: %.4f deg, dx %.2f dy %.2f mm\n", l.name.c_str(), e.angle_deg, 1e3 * e.dt_m.x(), 1e3 * e.dt_m.y());
+    EXPECT_LT(e.angle_deg, 0.1) << l.name;
+    EXPECT_LT(e.dt_m.head<2>().maxCoeff(), 0.02) << l.name;
+    EXPECT_TRUE(std::filesystem::exists(dir / "out" / l.name / "extrinsic.json")) << l.name;
+  }
+  std::filesystem::remove_all(dir);
 }
 
 TEST(Rig, PairUncertaintyMatchesNumericPropagation) {
