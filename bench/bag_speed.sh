@@ -29,7 +29,7 @@ sim ros1 ros1
 sim db3 db3
 input() {  # the input options of one container
   case $1 in
-    pcd) echo "--lidar-dir $work/pcd/lidar --poses $work/pcd/poses.txt" ;;
+    pcd) echo "--lidar-dir $work/pcd/lidar --poses $work/pcd/poses_tum.txt" ;;  # 100 Hz, as the recordings
     mcap) echo "--bag $work/mcap/drive.mcap" ;;
     ros1) echo "--bag $work/ros1/drive.bag" ;;
     db3) echo "--bag $work/db3/drive" ;;

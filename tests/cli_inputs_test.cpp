@@ -333,6 +333,9 @@ TEST(CliInputs, PcdFolderClockOffsetFoundFromTheMotionAndRigFolders) {
   ASSERT_EQ(rc, 0) << out;
   expect_lines(out, {"Clocks ", "GPS - UTC", "applied        t_ins = t_lidar +18 s", "  evidence       LiDAR rotation angles",
                      "format         TUM"});
+  const auto [poses_rc, alone] = run("info --poses " + poses);  // a pose source alone: its facts and drive
+  EXPECT_EQ(poses_rc, 0) << alone;
+  expect_lines(alone, {"format         TUM (t x y z qx qy qz qw)", "records        2541 (0 skipped), 100.00 Hz", "Drive", "distance "});
   fs::create_directory_symlink(dir / "sim" / "lidar", dir / "left");
   const auto [rig_rc, rig] = run("info --lidar-dir " + lidar + " --lidar-dir " + (dir / "left").string() + " --poses " + poses);
   ASSERT_EQ(rig_rc, 0) << rig;
