@@ -5,13 +5,14 @@
 # decode-everything floor (bench/io_floor: every sweep decoded once, one thread), measured in the
 # same run: floor and calibrate back to back, REPEAT times, medians. Run it after a Release build
 # with the benchmarks (bash scripts/build.sh, or any build folder with -DINSALIGN_BUILD_BENCH=ON):
-#   [BUILD_DIR=build] [REPEAT=3] bash bench/table1.sh [SEED] [WORK_DIR]
+#   [BUILD_DIR=build] [REPEAT=3] [CALIBRATE_ARGS="--config FILE"] bash bench/table1.sh [SEED] [WORK_DIR]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seed=${1:-11}
 work=${2:-$(mktemp -d)}
 build=${BUILD_DIR:-build}
 repeat=${REPEAT:-3}
+read -r -a extra <<<"${CALIBRATE_ARGS:-}"  # added to every calibrate run
 bin=$build/src/insalign
 floor_bin=$build/bench/io_floor
 [[ -x $bin ]] || { echo "table1.sh: $bin not found; run bash scripts/build.sh first" >&2; exit 2; }
@@ -35,14 +36,14 @@ timed() {
   local label=$1
   shift
   /usr/bin/time -f "%e %M" -o "$work/$label.time" $bin calibrate --lidar-dir "$d/lidar" --poses "$d/poses.txt" \
-    --init "$d/init-extrinsic.json" --fiducials "$d/fiducials.txt" --out "$work/$label" "$@" >"$work/$label.log" 2>&1
+    --init "$d/init-extrinsic.json" --fiducials "$d/fiducials.txt" --out "$work/$label" "${extra[@]}" "$@" >"$work/$label.log" 2>&1
   awk '{printf "%s %.0f\n", $1, $2 / 1024}' "$work/$label.time" >>"$work/$label.times"
 }
 sync
 $bin calibrate --lidar-dir "$d/lidar" --poses "$d/poses.txt" --init "$d/init-extrinsic.json" \
-  --fiducials "$d/fiducials.txt" --out "$work/with-init" --segments 0 --no-report >"$work/with-init.log" 2>&1
+  --fiducials "$d/fiducials.txt" --out "$work/with-init" "${extra[@]}" --segments 0 --no-report >"$work/with-init.log" 2>&1
 $bin calibrate --lidar-dir "$d/lidar" --poses "$d/poses.txt" \
-  --fiducials "$d/fiducials.txt" --out "$work/no-init" --segments 0 --no-report >"$work/no-init.log" 2>&1
+  --fiducials "$d/fiducials.txt" --out "$work/no-init" "${extra[@]}" --segments 0 --no-report >"$work/no-init.log" 2>&1
 rm -f "$work"/floor.times "$work"/default.times "$work"/stages.times
 for ((r = 0; r < repeat; ++r)); do
   "$floor_bin" --lidar-dir "$d/lidar" --json | sed -E 's/.*"wall_s": ([0-9.]+).*/\1/' >>"$work/floor.times"

@@ -54,7 +54,10 @@ bool FrameStore::excluded(double t0_s, double t1_s) const {
 const Sweep& FrameStore::reduced(std::size_t index) const {
   Slot& slot = cache_->slots[index];
   std::call_once(slot.once, [&] {
-    slot.sweep = std::make_unique<const Sweep>(thin_sweep(data_->frames.load(index), base_));
+    Sweep sweep = thin_sweep(data_->frames.load(index), base_);
+    // No stage reads intensities: a fifth less memory per stored point (12 B position + 4 B time).
+    sweep.intensity = {};
+    slot.sweep = std::make_unique<const Sweep>(std::move(sweep));
     ++cache_->decoded;
   });
   return *slot.sweep;

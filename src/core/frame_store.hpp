@@ -88,7 +88,8 @@ class FrameStore {
   /// nullptr: every point is used.
   const PointMask* mask() const { return mask_.get(); }
 
-  /// The frame thinned by the base filter, decoded on first use. Thread-safe; throws what the
+  /// The frame thinned by the base filter (positions and point times; intensities dropped),
+  /// decoded on first use. Thread-safe; throws what the
   /// dataset's loader throws (and tries again on the next call).
   const Sweep& reduced(std::size_t index) const;
   /// `filter` applied to the stored copies of the given frames, in parallel, then the mask.

@@ -9,6 +9,8 @@
 #include <cmath>
 #include <utility>
 
+#include "core/voxel_grid.hpp"
+
 namespace insalign {
 namespace {
 
@@ -93,8 +95,7 @@ std::size_t count_occupied_voxels(const std::vector<Vec3f>& p_world, double voxe
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, p_world.size(), 8192), [&](const auto& r) {
     for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = voxel_key(Vec3f(p_world[i] - grid_shift_m), inv);
   });
-  tbb::parallel_sort(keys.begin(), keys.end());
-  return static_cast<std::size_t>(std::unique(keys.begin(), keys.end()) - keys.begin());
+  return count_distinct_keys(keys);
 }
 
 double occupancy_score(const std::vector<Vec3>& p_world, double voxel_m) {

@@ -26,9 +26,15 @@ SegmentFrames slice(const FrameStore& store, const RepeatabilityInputs& in, doub
 }
 
 SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
-                                const RoughConfig& rough_config, const RefineConfig& refine_config) {
+                                const RoughConfig& rough_config, const RefineConfig& refine_config, int rough_rounds) {
   SegmentResult out;
-  const RoughResult rough = calibrate_rough(store, frames.groups, in.T_ins_lidar_start, rough_config);
+  RoughConfig own = rough_config;
+  Iso3 start = in.T_ins_lidar_start;
+  if (rough_rounds > 0 && static_cast<std::size_t>(rough_rounds) < own.rounds.size()) {
+    own.rounds.erase(own.rounds.begin(), own.rounds.end() - rough_rounds);
+    start = in.T_ins_lidar_full;
+  }
+  const RoughResult rough = calibrate_rough(store, frames.groups, start, own);
   if (!rough.outcome.ok()) {
     out.message = rough.outcome.message;
     return out;
@@ -101,7 +107,7 @@ RepeatabilityResult run_repeatability(const FrameStore& store, const Repeatabili
     const double t0 = frames[begin].t_end_s;
     const double t1 = end < frames.size() ? frames[end].t_end_s : frames.back().t_end_s + 1.0;
     const SegmentFrames own = slice(store, inputs, t0, t1);
-    seg = calibrate_segment(store, inputs, own, rough, refine);
+    seg = calibrate_segment(store, inputs, own, rough, refine, config.rough_rounds);
     seg.t_begin_s = t0;
     seg.t_end_s = frames[end - 1].t_end_s;
     seg.frames = end - begin;

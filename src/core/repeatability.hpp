@@ -1,5 +1,5 @@
 // The repeatability study: the drive cut into disjoint time segments, each calibrated alone
-// (stages 1 and 2 from the same start), so that the spread of the results shows, without ground
+// (stages 1 and 2 on the segment's frames only, from the same start), so that the spread of the results shows, without ground
 // truth, how well the drive pins the extrinsic down. Segments use the full run's own frames
 // (the part of its selections inside their time span) from the same store, so they decode
 // nothing again, and they run in parallel.
@@ -17,6 +17,11 @@ namespace insalign {
 
 struct RepeatabilityConfig {
   int segments = 3;            ///< disjoint time segments; 0 or 1: off
+  /// Stage-1 rounds a segment runs: the last ones of the schedule, from the full run's result.
+  /// The early rounds only bring a far start into the basin, which the full run has done; each
+  /// segment still settles on its own data (planes refound, stage 2 from its stage 1). 0: the
+  /// whole schedule from the run's start (3x the stage-1 work).
+  int rough_rounds = 2;
   double warn_rot_deg = 0.1;   ///< a spread (max - min) above this is a warning
   double warn_trans_m = 0.02;
 };
@@ -24,6 +29,7 @@ struct RepeatabilityConfig {
 template <class V>
 void visit_config(V& v, RepeatabilityConfig& c) {
   v("segments", c.segments, "disjoint drive segments calibrated on their own to show the spread (0 or 1: off)");
+  v("rough_rounds", c.rough_rounds, "stage-1 rounds per segment, the schedule's last, from the full result (0: all, from the start)");
   v("warn_rot_deg", c.warn_rot_deg, "segment spread (max - min) above this is a warning, deg");
   v("warn_trans_m", c.warn_trans_m, "segment spread (max - min) above this is a warning, m");
 }

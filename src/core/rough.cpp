@@ -215,6 +215,16 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
   }
 }
 
+// Appends the planes (clusters) of `part`, built over the same local frames, to `problem`.
+void append_planes(const Problem& part, Problem& problem) {
+  if (part.planes() == 0) return;
+  if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
+  const std::size_t offset = problem.clusters.size();
+  problem.clusters.insert(problem.clusters.end(), part.clusters.begin(), part.clusters.end());
+  for (std::size_t j = 1; j < part.plane_begin.size(); ++j) problem.plane_begin.push_back(offset + part.plane_begin[j]);
+  problem.residuals += part.residuals;
+}
+
 }  // namespace
 
 
@@ -295,14 +305,23 @@ Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, 
   const auto& groups = frames.groups;
   const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
   const std::size_t stride = static_cast<std::size_t>(std::max(1, round.frame_stride));
-  *windows = 0;
+  std::vector<std::vector<std::uint32_t>> windows_frames;
   for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
-    std::vector<std::uint32_t> window;
+    std::vector<std::uint32_t>& window = windows_frames.emplace_back();
     for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
       for (std::size_t n = 0; n < groups[g].size(); n += (per_window == 1 ? 1 : stride)) window.push_back(groups[g][n]);
-    add_window(window, p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, problem);
-    ++*windows;
   }
+  // Windows are independent: built in parallel, appended in window order (the same problem as
+  // building them one after the other).
+  std::vector<Problem> parts(windows_frames.size());
+  tbb::parallel_for(std::size_t{0}, windows_frames.size(), [&](std::size_t w) {
+    add_window(windows_frames[w], p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, parts[w]);
+  });
+  std::size_t clusters = 0;
+  for (const Problem& part : parts) clusters += part.clusters.size();
+  problem.clusters.reserve(clusters);
+  for (Problem& part : parts) append_planes(part, problem), part = Problem{};  // freed as it is copied
+  *windows = static_cast<int>(windows_frames.size());
   return problem;
 }
 

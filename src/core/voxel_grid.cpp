@@ -1,8 +1,52 @@
 #include "core/voxel_grid.hpp"
 
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
 #include <unordered_map>
 
 namespace insalign {
+namespace {
+
+constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no voxel key has all 64 bits set
+constexpr std::uint64_t kMix = 0x9E3779B97F4A7C15ull;
+constexpr std::size_t kParallelPoints = 400000;    // below this one pass on one thread is faster
+
+// The same result as the one-thread pass for big clouds (a stitched map): points split into
+// buckets by the hash of their voxel, each bucket keeps its first point per voxel in its own
+// cache-sized table (buckets in parallel), and the kept indices are put back in input order.
+std::vector<std::uint32_t> downsample_in_buckets(std::span<const Vec3f> points, double inv) {
+  constexpr int kBucketBits = 8;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBucketBits;
+  std::vector<std::uint64_t> keys(points.size());
+  tbb::parallel_for(std::size_t{0}, points.size(), std::size_t{8192}, [&](std::size_t c) {
+    for (std::size_t i = c; i < std::min(points.size(), c + 8192); ++i) keys[i] = voxel_key(points[i], inv);
+  });
+  std::vector<std::size_t> begin(kBuckets + 1, 0);
+  for (std::uint64_t key : keys) ++begin[((key * kMix) >> (64 - kBucketBits)) + 1];
+  for (std::size_t b = 0; b < kBuckets; ++b) begin[b + 1] += begin[b];
+  std::vector<std::uint32_t> bucketed(points.size());  // point indices, increasing within a bucket
+  std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+  for (std::size_t i = 0; i < keys.size(); ++i) bucketed[fill[(keys[i] * kMix) >> (64 - kBucketBits)]++] = static_cast<std::uint32_t>(i);
+  std::vector<std::vector<std::uint32_t>> kept(kBuckets);
+  tbb::parallel_for(std::size_t{0}, kBuckets, [&](std::size_t b) {
+    std::size_t capacity = 16;
+    while (capacity < 2 * (begin[b + 1] - begin[b])) capacity <<= 1;
+    std::vector<std::uint64_t> table(capacity, kEmpty);
+    for (std::size_t k = begin[b]; k < begin[b + 1]; ++k) {
+      const std::uint64_t key = keys[bucketed[k]];
+      std::size_t slot = (key * kMix) >> 20 & (capacity - 1);
+      while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
+      if (table[slot] == kEmpty) table[slot] = key, kept[b].push_back(bucketed[k]);
+    }
+  });
+  std::vector<std::uint32_t> out;
+  for (const auto& v : kept) out.insert(out.end(), v.begin(), v.end());
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+}  // namespace
 
 std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m) {
   std::vector<std::uint32_t> kept;
@@ -12,14 +56,14 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
     return kept;
   }
   const double inv = 1.0 / voxel_m;
+  if (points.size() >= kParallelPoints) return downsample_in_buckets(points, inv);
   // Open addressing on packed keys: several times faster than std::unordered_set per sweep.
   std::size_t capacity = 1024;
   while (capacity < 2 * points.size()) capacity <<= 1;
-  constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
   std::vector<std::uint64_t> table(capacity, kEmpty);
   for (std::size_t i = 0; i < points.size(); ++i) {
     const std::uint64_t key = voxel_key(points[i], inv);
-    std::size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & (capacity - 1);
+    std::size_t slot = (key * kMix) >> 20 & (capacity - 1);
     while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
     if (table[slot] == kEmpty) {
       table[slot] = key;
@@ -27,6 +71,34 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
     }
   }
   return kept;
+}
+
+std::size_t count_distinct_keys(std::span<const std::uint64_t> keys) {
+  constexpr int kBucketBits = 8;
+  constexpr std::size_t kBuckets = std::size_t{1} << kBucketBits;
+  const auto mix = [](std::uint64_t key) { return key * kMix; };
+  std::vector<std::size_t> begin(kBuckets + 1, 0);
+  for (std::uint64_t key : keys) ++begin[(mix(key) >> (64 - kBucketBits)) + 1];
+  for (std::size_t b = 0; b < kBuckets; ++b) begin[b + 1] += begin[b];
+  std::vector<std::uint64_t> bucketed(keys.size());
+  std::vector<std::size_t> fill(begin.begin(), begin.end() - 1);
+  for (std::uint64_t key : keys) bucketed[fill[mix(key) >> (64 - kBucketBits)]++] = key;
+  std::vector<std::size_t> distinct(kBuckets, 0);
+  tbb::parallel_for(std::size_t{0}, kBuckets, [&](std::size_t b) {
+    const std::size_t n = begin[b + 1] - begin[b];
+    std::size_t capacity = 16;
+    while (capacity < 2 * n) capacity <<= 1;
+    std::vector<std::uint64_t> table(capacity, kEmpty);
+    for (std::size_t i = begin[b]; i < begin[b + 1]; ++i) {
+      const std::uint64_t key = bucketed[i];
+      std::size_t slot = (mix(key) >> 20) & (capacity - 1);
+      while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
+      if (table[slot] == kEmpty) table[slot] = key, ++distinct[b];
+    }
+  });
+  std::size_t total = 0;
+  for (std::size_t d : distinct) total += d;
+  return total;
 }
 
 std::vector<Vec3f> voxel_downsample(std::span<const Vec3f> points, double voxel_m) {

