@@ -148,6 +148,9 @@ PairCheck check_pair(const PlacedFrame& a, const PlacedFrame& b, const LidarMoti
   check.jump_m = a.T_world_lidar.linear() * (T_a_b_ins.translation() - reg.T_target_source.translation());
   check.turn_deg = std::abs(Eigen::AngleAxisd(T_a_b_ins.linear()).angle() -
                             Eigen::AngleAxisd(reg.T_target_source.linear()).angle()) * kDegPerRad;
+  // Rotations that disagree (a clock offset in a turn: 20 deg/s x 35 ms = 0.7 deg; a poor
+  // registration) make the translation say nothing about the INS position.
+  check.used = check.turn_deg <= c.min_turn_deg;
   return check;
 }
 
@@ -398,7 +401,7 @@ void motion_check(const std::vector<PlacedFrame>& frames, const LidarMotionConfi
   });
   out.jump_threshold_m = jump_threshold(out.pairs, c);
   for (PairCheck& p : out.pairs)
-    p.flagged = p.used && (p.jump_m.norm() > out.jump_threshold_m || p.turn_deg > c.min_turn_deg);
+    p.flagged = p.used && p.jump_m.norm() > out.jump_threshold_m;
   const std::vector<TimeSpan> spans = motion_spans(out.pairs, period_s, c);
   out.spans.insert(out.spans.end(), spans.begin(), spans.end());
 }

@@ -43,7 +43,7 @@ struct LidarMotionConfig {
   /// median discrepancy) flags a pair (RTK noise and ICP agree to 1-2 cm; a wrong fix is 0.5 m).
   double min_jump_m = 0.15;
   double jump_factor = 6.0;
-  double min_turn_deg = 0.3;       ///< rotation-angle discrepancy that flags a pair (extrinsic-free)
+  double min_turn_deg = 0.3;       ///< a pair whose rotation angles disagree by more is not used (clock offset, bad ICP)
   double max_span_s = 60.0;        ///< a jump and its return farther apart are not paired
   ScanRegistrationConfig icp = {.max_iterations = 20};
 };
@@ -91,7 +91,7 @@ void visit_config(V& v, LidarMotionConfig& c) {
   v("min_inlier_ratio", c.min_inlier_ratio, "registrations with fewer inliers are not used");
   v("min_jump_m", c.min_jump_m, "LiDAR-INS motion discrepancy that flags a pair, m");
   v("jump_factor", c.jump_factor, "...and above this x the drive's median discrepancy");
-  v("min_turn_deg", c.min_turn_deg, "rotation-angle discrepancy that flags a pair, deg");
+  v("min_turn_deg", c.min_turn_deg, "a pair whose LiDAR and INS rotation angles disagree by more is not used, deg");
   v("max_span_s", c.max_span_s, "a jump and its return farther apart are not paired, s");
   v.section("icp", c.icp);
 }
