@@ -40,21 +40,23 @@ void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames,
 }
 
 // The INS trajectory corrected jointly with the extrinsic: stage 2 takes the INS poses as exact,
-// and a drifting INS biases it. Returns the store with the corrected poses when they are used.
-std::optional<FrameStore> run_trajectory_correction(const FrameStore& store, const PipelineConfig& config,
-                                                    const PipelineProgress& progress, CalibrationResult& r) {
+// and a drifting INS biases it. Only the extrinsic is taken from it: stage 3 and the repeatability
+// study keep the reported poses (fiducials are absolute and the correction's mean is a gauge
+// choice; and stage 3 on the corrected poses came out 0.27-0.64 m off on some drives, not yet
+// understood: tests/trajectory_correction_test.cpp, the disabled test).
+void run_trajectory_correction(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
+                               CalibrationResult& r) {
   RefineConfig refine = config.refine;
   refine.estimate_time_offset = r.refine && r.refine->time_offset_estimated;  // as stage 2 ended
   progress("trajectory", 0.0);
   r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine);
   progress("trajectory", 1.0);
-  if (!r.trajectory.applied) return std::nullopt;
+  if (!r.trajectory.applied) return;
   r.T_ins_lidar = r.trajectory.T_ins_lidar;
   r.time_offset_s = r.trajectory.time_offset_s;
   if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
   for (int i : {0, 1, 3, 4, 5}) r.stddev[i] = r.trajectory.outcome.stddev[i];
   r.warnings.push_back(r.trajectory.decision);
-  return store.with(corrected_poses(store.poses(), r.trajectory), store.excluded());
 }
 
 // The formal stddev treats every point as independent and comes out 10-50x below the
@@ -171,9 +173,8 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
                                                   config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0)
                         : std::vector<std::size_t>{};
   if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
-  std::optional<FrameStore> corrected;
-  if (config.run_refine) corrected = run_trajectory_correction(screened, config, progress, r);
-  const FrameStore& placed = corrected ? *corrected : screened;  // the poses the later steps use
+  if (config.run_refine) run_trajectory_correction(screened, config, progress, r);
+  const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
   run_finish(placed, groups, refine_frames, config, progress, r);  // steps 4-5
   r.frames_decoded = store.frames_decoded();

@@ -64,8 +64,8 @@ struct CalibrationResult {
   GlobalInitResult init;
   RoughResult rough;
   std::optional<RefineResult> refine;
-  /// After stage 2: the INS trajectory correction and the joint extrinsic; when applied, stage 3
-  /// and the repeatability study place sweeps with the corrected poses.
+  /// After stage 2: the INS trajectory correction and the joint extrinsic; when applied, the
+  /// result takes the joint extrinsic (stage 3 and the repeatability study keep the reported poses).
   TrajectoryCorrection trajectory;
   /// Bad INS stretches: the INS status spans (before any stage) and the LiDAR checks (after
   /// stage 1); `excluded` = every span stages 2, 3 and the repeatability study left out.
