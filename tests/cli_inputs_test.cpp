@@ -22,12 +22,15 @@
 #include <utility>
 #include <vector>
 
+#include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "io/bag/bag_reader.hpp"
 #include "io/bag/bag_writer.hpp"
 #include "io/bag_topics.hpp"
 #include "io/extrinsic_json.hpp"
 #include "io/formats.hpp"
+#include "io/input_info.hpp"
+#include "io/input_source.hpp"
 #include "io/read_file.hpp"
 
 namespace insalign {
@@ -162,6 +165,25 @@ TEST(CliInputs, KittiRawDriveCalibratesWithinTheBounds) {
   const io::ReadTransform kitti = io::parse_kitti_imu_to_velo(io::read_file(dir / "out" / io::kKittiFile), io::kKittiFile);
   EXPECT_LT(extrinsic_error(kitti.T_parent_child, truth.T_ins_lidar).angle_deg, 0.03);
   fs::remove_all(dir);
+}
+
+// Through the library: a fixture written by python3-rosbag with two drivers, named in what is read.
+TEST(CliInputs, EachLidarOfARecordingSaysItsTimeConvention) {
+  io::InputSpec spec;
+  spec.bag = fs::path(__FILE__).parent_path() / "data" / "bags" / "ros1_ouster_livox_tf_lz4.bag";
+  spec.lidar_topics = {"/ouster/points", "/livox/lidar"};
+  const io::LoadedInput input = io::load_input(spec);
+  ASSERT_EQ(input.reports.size(), 2u);
+  EXPECT_EQ(input.lidar_names, (std::vector<std::string>{"ouster_points", "livox_lidar"}));
+  EXPECT_EQ(input.reports[0].time_field, "t");
+  EXPECT_TRUE(contains(input.reports[1].time_field, "nanoseconds")) << input.reports[1].time_field;  // Livox: not seconds
+  EXPECT_TRUE(contains(io::describe_load(input.reports[1]), "nanoseconds")) << io::describe_load(input.reports[1]);
+  EXPECT_THROW(io::input_kind([&] {
+                 io::InputSpec two = spec;
+                 two.inits = {"a.json", "b.json", "c.json"};
+                 return two;
+               }()),
+               InputError);
 }
 
 // ---------------------------------------------------------------- info --bag on real bags

@@ -274,7 +274,11 @@ LoadReport to_load_report(const BagReport& report, std::size_t lidar) {
   r.frames_used = l.frames_used;
   r.frames_outside_poses = l.frames_outside_ins;
   r.frames_bad = l.frames_duplicate;
-  r.time_field = l.time_field;
+  // The PCD names mean what Hesai, Velodyne and Ouster send; other conventions (Livox's absolute
+  // nanoseconds, other field names) are said in the driver's words.
+  const bool pcd_meaning = l.time_convention != bag::PointTimeConvention::kAbsoluteNanoseconds &&
+                           (l.time_field == "timestamp" || l.time_field == "time" || l.time_field == "t" || l.time_field.empty());
+  r.time_field = pcd_meaning ? l.time_field : l.time_description;
   r.frame_time_source = fmt::format("{} header.stamp {:+.6f} s (sweep end - stamp, median of {} decoded clouds; {})",
                                     l.topic, l.stamp_to_end_s, l.frames_sampled, l.time_description);
   std::string topics;
