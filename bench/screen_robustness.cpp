@@ -117,6 +117,8 @@ void run_one(const cli::ToolConfig& tool, const Options& o, std::uint64_t seed, 
   const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   arm.errors.push_back(e);
   std::string extra;
+  for (int i = 0; i < 6; ++i)
+    if (!r.determined[i]) extra += fmt::format(" [{} undetermined]", kDofNames[i]);
   if (screen && !world->ins_events.empty()) extra = span_score(r.excluded, world->ins_events, world->frame_times_s.front(), arm.missed);
   if (screen && world->traffic && !world->traffic->movers.empty()) extra += mask_score(*world, store, r, config);
   if (screen)
