@@ -107,7 +107,8 @@ std::vector<DzSample> measure_fiducials(const FrameStore& store, const std::vect
     }
     fr.residual_before_m = fiducials[f].p_world.z() - h.z_m;
     gain[f] = h.dz_gain;
-    const double g = std::max(h.dz_gain, 0.5);  // ~1 unless the vehicle tilts a lot
+    // |gain| ~1 unless the vehicle tilts a lot; negative for an `ins` frame whose z points down (SBET).
+    const double g = std::copysign(std::max(std::abs(h.dz_gain), 0.5), h.dz_gain);
     samples.push_back({fr.residual_before_m / g, std::hypot(h.sigma_m, config.fiducial_sigma_m) / g});
     sample_fiducial.push_back(f);
   }
@@ -283,7 +284,7 @@ void from_height(const FrameStore& store, const Iso3& T_ins_lidar, double time_o
       last_problem = ground[s].problem;
       continue;
     }
-    const double g = std::max(ground[s].dz_gain, 0.5);
+    const double g = std::copysign(std::max(std::abs(ground[s].dz_gain), 0.5), ground[s].dz_gain);
     // The INS is ins_height_m above the ground: z_ins - (z_ground + gain * dz) = ins_height_m.
     const double z_ins = drive.T_world_ins[sample[s]].translation().z();
     samples.push_back({(z_ins - ground[s].z_m - ins_height_m) / g, std::max(ground[s].sigma_m, 1e-3) / g});
