@@ -282,6 +282,22 @@ std::string html_convergence(const ReportData& data) {
   return h;
 }
 
+// The INS position correction over the drive: what the poses were off by, as the map saw it.
+std::string html_trajectory_correction(const ReportData& data) {
+  if (!data.trajectory_correction) return "";
+  const TrajectoryCorrectionReport& c = *data.trajectory_correction;
+  Plot plot{"INS position correction (corrected = reported + this)", "time after the first frame (s)", "cm", {}, {}};
+  const std::array<const char*, 3> names = {"east (world x)", "north (world y)", "up (world z)"};
+  const std::array<const char*, 3> colours = {"#d62728", "#2ca02c", "#1f77b4"};
+  for (int k = 0; k < 3; ++k) {
+    PlotSeries s{names[k], colours[k], c.t_s, {}};
+    for (const Vec3& p : c.position_m) s.y.push_back(100.0 * p[k]);
+    plot.series.push_back(s);
+  }
+  return "<h2>INS trajectory correction</h2>\n<p class=\"" + std::string(c.applied ? "bad" : "ok") + "\">" +
+         esc(c.decision) + "</p>\n<div>" + svg_line_plot(plot) + "</div>\n";
+}
+
 std::string html_maps(const ReportImages& images) {
   const auto& snaps = images.snaps;
   const auto& wall = images.wall;
@@ -432,7 +448,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
   // Result first: the numbers to put on the car and whether to believe them.
   h += html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
        html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
-       html_repeatability(data) + html_output_files(data);
+       html_repeatability(data) + html_trajectory_correction(data) + html_output_files(data);
   h += "</body></html>\n";
   write_file_atomic(files.html, h);
   return files;
