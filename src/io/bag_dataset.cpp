@@ -13,6 +13,7 @@
 #include "io/bag_scan.hpp"
 #include "io/bag_topics.hpp"
 #include "io/ins/ins_track.hpp"
+#include "io/pose_source.hpp"
 
 namespace insalign::io {
 
@@ -23,19 +24,6 @@ constexpr double kMaxStampGap_s = 2.0;        // INS - LiDAR stamps at equal rec
 constexpr double kRecordGapTolerance_s = 0.05;  // whole-second match, gap measured from record times
 constexpr double kRangeGapTolerance_s = 0.15;   // ... measured between the middles of the ranges
 constexpr double kCopiedStamps_s = 1e-6;        // record time - stamp below this for both: copied stamps
-
-const char* solution_name(GnssSolution s) {
-  switch (s) {
-    case GnssSolution::kRtkFixed: return "RTK fixed";
-    case GnssSolution::kRtkFloat: return "RTK float";
-    case GnssSolution::kDifferential: return "differential";
-    case GnssSolution::kSingle: return "single point";
-    case GnssSolution::kInsOnly: return "INS only";
-    case GnssSolution::kInvalid: return "invalid";
-    case GnssSolution::kUnknown: break;
-  }
-  return "not stated";
-}
 
 InsReport ins_report(const InsSource& src, const WorldTrack& world) {
   InsReport r;
@@ -52,7 +40,7 @@ InsReport ins_report(const InsSource& src, const WorldTrack& world) {
   for (const InsQuality& q : world.quality) ++n[q.solution];
   if (!(n.size() == 1 && n.begin()->first == GnssSolution::kUnknown)) {
     for (const auto& [s, c] : n) {
-      r.solution_fractions.emplace_back(solution_name(s), static_cast<double>(c) / static_cast<double>(world.quality.size()));
+      r.solution_fractions.emplace_back(gnss_solution_name(s), static_cast<double>(c) / static_cast<double>(world.quality.size()));
     }
   }
   if (world.enu) r.enu_origin = world.enu->origin();
