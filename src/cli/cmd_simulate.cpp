@@ -477,13 +477,140 @@ int run_simulate(SimulateOptions& o) {
   return kExitOk;
 }
 
+// The scene, the drive, the true mount and the wrong guess.
+void add_drive_options(CLI::App* sub, SimulateOptions* o) {
+  sim::SimConfig& c = o->config;
+  sub->add_option("--out", o->out, "output dataset directory (lidar/, poses.txt, ground_truth.json, ...)")->required();
+  sub->add_option("--seed", c.seed, "random seed: scene, mount, noise")->capture_default_str();
+  sub->add_option("--scene", o->scene, "intersection | feature-poor")
+      ->check(CLI::IsMember({"intersection", "feature-poor"}))
+      ->capture_default_str();
+  sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
+      ->capture_default_str();
+  sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
+  auto* frames = sub->add_option("--frames", o->frames, "number of frames (truncates the drive)")
+                     ->check(CLI::Range(1, 1000000));
+  auto* duration = sub->add_option("--duration-s", c.duration_s, "drive length in seconds (truncates the drive)")
+                       ->check(CLI::Range(0.0, 3600.0));
+  frames->excludes(duration);
+  sub->add_option("--speed-kmh", c.speed_kmh, "cruise speed")->check(CLI::Range(0.1, 120.0))->capture_default_str();
+  sub->add_option("--traffic", c.traffic,
+                  "moving cars and vans (15-40 km/h in the lanes beside the path, keeping right, both directions)")
+      ->check(CLI::Range(0, 500))
+      ->capture_default_str();
+  sub->add_option("--pedestrians", c.pedestrians,
+                  "moving people: 30% cyclists (3-6 m/s, bike lanes), the others walking or jogging (1-3.5 m/s) along "
+                  "the sidewalks or crossing")
+      ->check(CLI::Range(0, 500))
+      ->capture_default_str();
+  sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+  sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
+  sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
+      ->check(CLI::Range(0.0, 180.0))
+      ->capture_default_str();
+  sub->add_option("--init-trans-err-m", c.init_trans_err_m, "translation error of init-extrinsic.json")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();
+}
+
+// The LiDAR (or rig) and its noise.
+void add_lidar_options(CLI::App* sub, SimulateOptions* o) {
+  sim::SimConfig& c = o->config;
+  sub->add_option("--rig", c.rig,
+                  "several LiDARs: name:model[@mount][/rate_hz],... e.g. top:pandar64,left:vlp16@left,right:vlp16@right,"
+                  "front:os1-64@front (mounts: roof, left, right, front, rear, roof-front; each LiDAR its own seeded "
+                  "mount, clock offset and spin phase; writes lidar/<name>/, poses-<name>.txt, init-extrinsic-<name>.json)");
+  sub->add_option("--rig-clock-spread-s", c.rig_clock_spread_s,
+                  "rig: each LiDAR's clock offset is --time-offset-s plus a uniform draw within +-this")
+      ->check(CLI::Range(0.0, 0.5))
+      ->capture_default_str();
+  sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64 | vlp16 | livox-avia (70.4 deg rosette)")
+      ->check(CLI::IsMember(sim::lidar_model_names()))
+      ->capture_default_str();
+  sub->add_option("--azimuth-step-deg", c.azimuth_step_deg, "horizontal resolution")
+      ->check(CLI::Range(0.01, 10.0))
+      ->capture_default_str();
+  sub->add_option("--range-noise-m", c.range_noise_m, "range noise sigma")->check(CLI::Range(0.0, 1.0))->capture_default_str();
+  sub->add_option("--dropout-prob", c.dropout_prob, "probability that a return is lost")
+      ->check(CLI::Range(0.0, 0.99))
+      ->capture_default_str();
+  sub->add_option("--max-range-m", c.max_range_m, "maximum range")->check(CLI::Range(5.0, 1000.0))->capture_default_str();
+}
+
+// The INS and its error models.
+void add_ins_options(CLI::App* sub, SimulateOptions* o) {
+  sim::SimConfig& c = o->config;
+  sub->add_option("--ins-axes", o->ins_axes, "INS body axes: x-forward (REP-103) | y-forward (NovAtel)")
+      ->check(CLI::IsMember({"x-forward", "y-forward"}))
+      ->capture_default_str();
+  sub->add_option("--ins-noise-scale", c.ins_noise_scale,
+                  "INS white noise (1 cm, 0.01/0.01/0.03 deg) and RTK-fixed bounded error, relative to a NovAtel-class unit "
+                  "(0 = perfect)")
+      ->check(CLI::Range(0.0, 1000.0))
+      ->capture_default_str();
+  sub->add_option("--ins-error", o->ins_error,
+                  "INS slow error: rtk-fixed (bounded: 1 cm horizontal, 1.5 cm vertical, 30 s Gauss-Markov) | drift (random "
+                  "walk from zero at the start: 5 mm/sqrt(s) per axis, heading 0.002 deg/sqrt(s))")
+      ->check(CLI::IsMember({"rtk-fixed", "drift"}))
+      ->capture_default_str();
+  sub->add_option("--ins-drift-m-per-sqrt-s", o->ins_drift_m_per_sqrt_s, "drift model: position random walk per axis (default 0.005)")
+      ->check(CLI::Range(0.0, 1.0));
+  sub->add_option("--ins-heading-drift-deg-per-sqrt-s", c.ins_error.drift_heading_deg_per_sqrt_s, "drift model: heading random walk")
+      ->check(CLI::Range(0.0, 1.0))
+      ->capture_default_str();
+  sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
+                  "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float with "
+                  "stddev 0.1-0.3 m (events keep 15 s from the drive's ends and 5 s apart)")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+  sub->add_option("--ins-outages", c.ins_error.outages,
+                  "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
+                  "0.02 deg tilt / 0.05 deg heading), reported as INS-only with a growing stddev")
+      ->check(CLI::Range(0, 100))
+      ->capture_default_str();
+}
+
+// What is written: layout, recording conventions, INS log format.
+void add_output_options(CLI::App* sub, SimulateOptions* o) {
+  sub->add_option("--format", o->format, "opencalib (PCD folder and pose files) | ros1 | mcap | db3 (a recording)")
+      ->check(CLI::IsMember({"opencalib", "ros1", "mcap", "db3"}))
+      ->capture_default_str();
+  sub->add_option("--lidar-convention", o->lidar_convention, "recordings: per-point time as hesai | velodyne | ouster | none")
+      ->check(CLI::IsMember({"hesai", "velodyne", "ouster", "none"}))
+      ->capture_default_str();
+  sub->add_option("--ins-message", o->ins_message, "recordings: inspva (INSPVA + INSPVAX) | navsatfix-imu | odometry | tf")
+      ->check(CLI::IsMember({"inspva", "navsatfix-imu", "odometry", "tf"}))
+      ->capture_default_str();
+  sub->add_option("--poses-format", o->poses_format,
+                  "opencalib (poses.txt, poses_tum.txt) | tum (the same) | novatel (novatel.log, GPS time, ins = SPAN "
+                  "vehicle frame) | sbet (sbet.out, ins = x forward, y right, z down) | csv (ins_export.csv + "
+                  "poses-columns.txt) | kitti (a KITTI raw drive: <date>_drive_0001_sync/ + calib_imu_to_velo.txt, ins = "
+                  "OXTS frame); INS logs come with geodetic fiducials and ground_truth.json in their ins frame")
+      ->check(CLI::IsMember({"opencalib", "tum", "novatel", "sbet", "csv", "kitti"}))
+      ->capture_default_str();
+  sub->add_option("--novatel-record", o->novatel_record, "novatel: inspvaxa | inspvaa | inspvasa")
+      ->check(CLI::IsMember({"inspvaxa", "inspvaa", "inspvasa"}))
+      ->capture_default_str();
+  sub->add_option("--ins-clock-offset-s", o->ins_clock_offset_s,
+                  "novatel, sbet, csv: whole seconds added to every INS stamp (18: an INS on GPS time beside a LiDAR on UTC)")
+      ->check(CLI::Range(-86400.0, 86400.0))
+      ->capture_default_str();
+  sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
+      ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))
+      ->capture_default_str();
+
+}
+
 }  // namespace
 
 Command make_simulate_command() {
   auto o = std::make_shared<SimulateOptions>();
   Command command;
   command.setup = [o](CLI::App& app) {
-    sim::SimConfig& c = o->config;
     CLI::App* sub = app.add_subcommand("simulate", "Simulate a calibration drive with ground truth (OpenCalib layout)");
     o->app = sub;
     // First, so that the file's values are set before the options given beside it (CLI11 assigns
@@ -500,114 +627,10 @@ Command make_simulate_command() {
            },
            "YAML file whose sim: section sets any simulator parameter (see 'insalign config --dump'); options override it")
         ->trigger_on_parse();
-    sub->add_option("--out", o->out, "output dataset directory (lidar/, poses.txt, ground_truth.json, ...)")->required();
-    sub->add_option("--seed", c.seed, "random seed: scene, mount, noise")->capture_default_str();
-    sub->add_option("--scene", o->scene, "intersection | feature-poor")
-        ->check(CLI::IsMember({"intersection", "feature-poor"}))
-        ->capture_default_str();
-    sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
-        ->capture_default_str();
-    sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
-    sub->add_option("--rig", c.rig,
-                    "several LiDARs: name:model[@mount][/rate_hz],... e.g. top:pandar64,left:vlp16@left,right:vlp16@right,"
-                    "front:os1-64@front (mounts: roof, left, right, front, rear, roof-front; each LiDAR its own seeded "
-                    "mount, clock offset and spin phase; writes lidar/<name>/, poses-<name>.txt, init-extrinsic-<name>.json)");
-    sub->add_option("--rig-clock-spread-s", c.rig_clock_spread_s,
-                    "rig: each LiDAR's clock offset is --time-offset-s plus a uniform draw within +-this")
-        ->check(CLI::Range(0.0, 0.5))
-        ->capture_default_str();
-    sub->add_option("--lidar", c.lidar_model, "pandar64 | hdl32 | os1-64 | vlp16 | livox-avia (70.4 deg rosette)")
-        ->check(CLI::IsMember(sim::lidar_model_names()))
-        ->capture_default_str();
-    sub->add_option("--azimuth-step-deg", c.azimuth_step_deg, "horizontal resolution")
-        ->check(CLI::Range(0.01, 10.0))
-        ->capture_default_str();
-    auto* frames = sub->add_option("--frames", o->frames, "number of frames (truncates the drive)")
-                       ->check(CLI::Range(1, 1000000));
-    auto* duration = sub->add_option("--duration-s", c.duration_s, "drive length in seconds (truncates the drive)")
-                         ->check(CLI::Range(0.0, 3600.0));
-    frames->excludes(duration);
-    sub->add_option("--speed-kmh", c.speed_kmh, "cruise speed")->check(CLI::Range(0.1, 120.0))->capture_default_str();
-    sub->add_option("--range-noise-m", c.range_noise_m, "range noise sigma")->check(CLI::Range(0.0, 1.0))->capture_default_str();
-    sub->add_option("--dropout-prob", c.dropout_prob, "probability that a return is lost")
-        ->check(CLI::Range(0.0, 0.99))
-        ->capture_default_str();
-    sub->add_option("--max-range-m", c.max_range_m, "maximum range")->check(CLI::Range(5.0, 1000.0))->capture_default_str();
-    sub->add_option("--ins-axes", o->ins_axes, "INS body axes: x-forward (REP-103) | y-forward (NovAtel)")
-        ->check(CLI::IsMember({"x-forward", "y-forward"}))
-        ->capture_default_str();
-    sub->add_option("--ins-noise-scale", c.ins_noise_scale,
-                    "INS white noise (1 cm, 0.01/0.01/0.03 deg) and RTK-fixed bounded error, relative to a NovAtel-class unit "
-                    "(0 = perfect)")
-        ->check(CLI::Range(0.0, 1000.0))
-        ->capture_default_str();
-    sub->add_option("--ins-error", o->ins_error,
-                    "INS slow error: rtk-fixed (bounded: 1 cm horizontal, 1.5 cm vertical, 30 s Gauss-Markov) | drift (random "
-                    "walk from zero at the start: 5 mm/sqrt(s) per axis, heading 0.002 deg/sqrt(s))")
-        ->check(CLI::IsMember({"rtk-fixed", "drift"}))
-        ->capture_default_str();
-    sub->add_option("--ins-drift-m-per-sqrt-s", o->ins_drift_m_per_sqrt_s, "drift model: position random walk per axis (default 0.005)")
-        ->check(CLI::Range(0.0, 1.0));
-    sub->add_option("--ins-heading-drift-deg-per-sqrt-s", c.ins_error.drift_heading_deg_per_sqrt_s, "drift model: heading random walk")
-        ->check(CLI::Range(0.0, 1.0))
-        ->capture_default_str();
-    sub->add_option("--ins-float-episodes", c.ins_error.float_episodes,
-                    "RTK float episodes: position error ramping to 0.3 m and back over 8 s, reported as RTK float with "
-                    "stddev 0.1-0.3 m (events keep 15 s from the drive's ends and 5 s apart)")
-        ->check(CLI::Range(0, 100))
-        ->capture_default_str();
-    sub->add_option("--ins-wrong-fixes", c.ins_error.wrong_fixes, "wrong RTK fixes: a 0.5 m jump held 5 s, reported as a normal fix")
-        ->check(CLI::Range(0, 100))
-        ->capture_default_str();
-    sub->add_option("--ins-outages", c.ins_error.outages,
-                    "GNSS outages of 10 s: the INS coasts (error growing quadratically to 0.3 m, attitude drifting to "
-                    "0.02 deg tilt / 0.05 deg heading), reported as INS-only with a growing stddev")
-        ->check(CLI::Range(0, 100))
-        ->capture_default_str();
-    sub->add_option("--time-offset-s", c.time_offset_s, "t_ins = t_lidar + offset")->check(CLI::Range(-1.0, 1.0))->capture_default_str();
-    sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
-    sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
-        ->check(CLI::Range(0.0, 180.0))
-        ->capture_default_str();
-    sub->add_option("--init-trans-err-m", c.init_trans_err_m, "translation error of init-extrinsic.json")
-        ->check(CLI::Range(0.0, 100.0))
-        ->capture_default_str();
-    sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
-    sub->add_option("--traffic", c.traffic,
-                    "moving cars and vans (15-40 km/h in the lanes beside the path, keeping right, both directions)")
-        ->check(CLI::Range(0, 500))
-        ->capture_default_str();
-    sub->add_option("--pedestrians", c.pedestrians,
-                    "moving people: 30% cyclists (3-6 m/s, bike lanes), the others walking or jogging (1-3.5 m/s) along "
-                    "the sidewalks or crossing")
-        ->check(CLI::Range(0, 500))
-        ->capture_default_str();
-    sub->add_option("--format", o->format, "opencalib (PCD folder and pose files) | ros1 | mcap | db3 (a recording)")
-        ->check(CLI::IsMember({"opencalib", "ros1", "mcap", "db3"}))
-        ->capture_default_str();
-    sub->add_option("--lidar-convention", o->lidar_convention, "recordings: per-point time as hesai | velodyne | ouster | none")
-        ->check(CLI::IsMember({"hesai", "velodyne", "ouster", "none"}))
-        ->capture_default_str();
-    sub->add_option("--ins-message", o->ins_message, "recordings: inspva (INSPVA + INSPVAX) | navsatfix-imu | odometry | tf")
-        ->check(CLI::IsMember({"inspva", "navsatfix-imu", "odometry", "tf"}))
-        ->capture_default_str();
-    sub->add_option("--poses-format", o->poses_format,
-                    "opencalib (poses.txt, poses_tum.txt) | tum (the same) | novatel (novatel.log, GPS time, ins = SPAN "
-                    "vehicle frame) | sbet (sbet.out, ins = x forward, y right, z down) | csv (ins_export.csv + "
-                    "poses-columns.txt) | kitti (a KITTI raw drive: <date>_drive_0001_sync/ + calib_imu_to_velo.txt, ins = "
-                    "OXTS frame); INS logs come with geodetic fiducials and ground_truth.json in their ins frame")
-        ->check(CLI::IsMember({"opencalib", "tum", "novatel", "sbet", "csv", "kitti"}))
-        ->capture_default_str();
-    sub->add_option("--novatel-record", o->novatel_record, "novatel: inspvaxa | inspvaa | inspvasa")
-        ->check(CLI::IsMember({"inspvaxa", "inspvaa", "inspvasa"}))
-        ->capture_default_str();
-    sub->add_option("--ins-clock-offset-s", o->ins_clock_offset_s,
-                    "novatel, sbet, csv: whole seconds added to every INS stamp (18: an INS on GPS time beside a LiDAR on UTC)")
-        ->check(CLI::Range(-86400.0, 86400.0))
-        ->capture_default_str();
-    sub->add_option("--pcd-encoding", o->pcd_encoding, "binary | binary_compressed | ascii")
-        ->check(CLI::IsMember({"binary", "binary_compressed", "ascii"}))
-        ->capture_default_str();
+    add_drive_options(sub, o.get());
+    add_lidar_options(sub, o.get());
+    add_ins_options(sub, o.get());
+    add_output_options(sub, o.get());
     sub->add_flag("--overwrite", o->overwrite, "replace PCD files already in OUT/lidar");
     sub->add_flag("--quiet", o->quiet, "no progress on stderr");
     return sub;

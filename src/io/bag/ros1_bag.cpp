@@ -49,8 +49,9 @@ std::uint32_t le32(const std::uint8_t* p) {
 }
 std::uint64_t le64(const std::uint8_t* p) { return le32(p) | std::uint64_t{le32(p + 4)} << 32; }
 // ROS time: uint32 seconds then uint32 nanoseconds.
+constexpr std::int64_t kNsPerSecond = 1000000000;
 std::int64_t ros_time_ns(const std::uint8_t* p) {
-  return static_cast<std::int64_t>(le32(p)) * 1'000'000'000 + static_cast<std::int64_t>(le32(p + 4));
+  return static_cast<std::int64_t>(le32(p)) * kNsPerSecond + static_cast<std::int64_t>(le32(p + 4));
 }
 
 // Where a problem is, for the error: the file, "byte N", and what the byte means.
