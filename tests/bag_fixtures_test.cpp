@@ -413,8 +413,16 @@ TEST(BagFixtures, Ros1OusterLivoxTfLz4) {
 
 TEST(BagFixtures, Ros1KilledRecordingIsScannedUpToItsLastWholeMessage) {
   // rosbag's own bytes of a recording killed mid-write: no index (index_pos 0), the last chunk
-  // still open (sizes 0) with 7 whole messages, the file ending inside the 8th.
-  const auto bag = open_bag(kDir / "ros1_killed_recording.bag");
+  // still open (sizes 0) with 7 whole messages, the file ending inside the 8th. The file ends
+  // inside a chunk: an error naming it unless input.read_cut_off.
+  try {
+    (void)open_bag(kDir / "ros1_killed_recording.bag");
+    ADD_FAILURE() << "a bag ending inside a chunk opened without input.read_cut_off";
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.location(), "byte 100305") << e.what();
+    EXPECT_NE(std::string(e.what()).find("reads the 2 whole chunks before it"), std::string::npos) << e.what();
+  }
+  const auto bag = open_bag(kDir / "ros1_killed_recording.bag", OpenOptions{true});
   ASSERT_FALSE(bag->warnings().empty());
   bool names_offset = false;
   for (const std::string& w : bag->warnings()) names_offset |= w.find("byte 101690") != std::string::npos;

@@ -293,7 +293,8 @@ TEST(CliBadInput, RecordingsThatCannotBeReadExitTwoAndWriteNothing) {
     std::ofstream(dir / "cut.bag", std::ios::binary).write(bytes.data(), 200000);
   }
   expect_exit_2_nothing_written(b + (dir / "cut.bag").string(), dir / "out_cut",
-                                {(dir / "cut.bag").string(), "cut off", "byte 200000", "no sensor_msgs/PointCloud2"});
+                                {(dir / "cut.bag").string(), "cut off mid-chunk", "the file ends at byte 200000",
+                                 "no whole chunk comes before it"});
   expect_exit_2_nothing_written(b + bag.string() + " --lidar-topic /nope", dir / "out_missing",
                                 {bag.string(), "/nope", "/ouster/points"});
   expect_exit_2_nothing_written(b + bag.string() + " --ins-topic /nope", dir / "out_ins", {bag.string(), "/nope"});
@@ -304,6 +305,80 @@ TEST(CliBadInput, RecordingsThatCannotBeReadExitTwoAndWriteNothing) {
   // Two LiDAR topics: ambiguous without --lidar-topic.
   const fs::path rig = simulate(dir / "rig", "mcap", "hesai", "odometry", "--duration-s 1 --rig top:vlp16,left:vlp16@left");
   expect_exit_2_nothing_written(b + rig.string(), dir / "out_rig", {rig.string(), "/top", "/left", "--lidar-topic"});
+  fs::remove_all(dir);
+}
+
+/// `bytes` cut to its first `n` bytes, written to `path`.
+fs::path cut_copy(const std::string& bytes, std::size_t n, const fs::path& path) {
+  std::ofstream(path, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(n));
+  return path;
+}
+
+/// The number after `prefix` in `text` (0, with a failure, when absent).
+std::uint64_t number_after(const std::string& text, const std::string& prefix) {
+  const std::size_t at = text.find(prefix);
+  EXPECT_NE(at, std::string::npos) << prefix << " in:\n" << text;
+  return at == std::string::npos ? 0 : std::stoull(text.substr(at + prefix.size()));
+}
+
+// A recording cut off, per container. ROS 1: the file ending inside a chunk exits 2 naming the
+// cut chunk's byte and the file's end, nothing written, unless --set input.read_cut_off=true
+// (then it calibrates from the whole chunks before the cut, with a warning); ending where a
+// chunk starts loses nothing and is read with a warning. MCAP: streamed to its last whole record
+// with a warning giving the byte. rosbag2 sqlite3: a cut .db3 exits 2 naming the file.
+TEST(CliBadInput, CutOffRecordingsPerContainer) {
+  const fs::path dir = fresh_dir("cutoff");
+  const fs::path bag = simulate(dir / "ros1", "ros1", "hesai", "odometry");
+  const std::string bytes = io::read_file(bag);
+  const std::size_t end = bytes.size() * 5 / 6;
+  const fs::path cut = cut_copy(bytes, end, dir / "cut.bag");
+  const std::string calibrate = "calibrate --bag " + cut.string() + " --init " + (dir / "ros1" / "init-extrinsic.json").string() +
+                                " --segments 0 --no-report";
+  const auto [rc, text] = run(calibrate + " --out " + (dir / "out_cut").string());
+  EXPECT_EQ(rc, 2) << text;
+  EXPECT_FALSE(fs::exists(dir / "out_cut"));
+  const std::uint64_t chunk = number_after(text, cut.string() + ":byte ");
+  EXPECT_LT(chunk, end);
+  EXPECT_GT(chunk, end / 2);
+  for (const std::string& part : std::vector<std::string>{"cut off mid-chunk: the chunk starting at byte " + std::to_string(chunk),
+                                                         "the file ends at byte " + std::to_string(end),
+                                                         "`rosbag reindex` cannot recover", "--set input.read_cut_off=true reads the "}) {
+    EXPECT_TRUE(contains(text, part)) << part << "\n" << text;
+  }
+  // With the switch: the whole chunks before the cut, a warning naming where it stopped, a result.
+  const auto [rc_on, on] = run(calibrate + " --set input.read_cut_off=true --out " + (dir / "out_on").string());
+  ASSERT_EQ(rc_on, 0) << on;
+  EXPECT_TRUE(contains(on, "stopped at byte " + std::to_string(chunk))) << on;
+  EXPECT_TRUE(contains(on, "read because input.read_cut_off is true")) << on;
+  const io::ExtrinsicFile truth = io::read_extrinsic_file(dir / "ros1" / "ground_truth.json");
+  const ExtrinsicError e = extrinsic_error(io::read_extrinsic_file(dir / "out_on" / "extrinsic.json").T_ins_lidar, truth.T_ins_lidar);
+  EXPECT_LT(e.drpy_deg.maxCoeff(), 0.05) << e.drpy_deg.transpose();
+  EXPECT_LT(e.dt_m.head<2>().maxCoeff(), 0.02) << e.dt_m.transpose();
+  // Ending where that chunk starts (the index lost, no chunk cut): read, with a warning.
+  const fs::path boundary = cut_copy(bytes, chunk, dir / "boundary.bag");
+  const auto [rc_b, at_boundary] = run("info --bag " + boundary.string());
+  EXPECT_EQ(rc_b, 0) << at_boundary;
+  EXPECT_TRUE(contains(at_boundary, "lies past the end of the file")) << at_boundary;
+  EXPECT_TRUE(contains(at_boundary, "in file order, to the end of the file")) << at_boundary;
+
+  // MCAP without summary: streamed to the last whole record.
+  const fs::path mcap = simulate(dir / "mcap", "mcap", "hesai", "odometry", "--duration-s 4");
+  const std::string mcap_bytes = io::read_file(mcap);
+  const fs::path mcap_cut = cut_copy(mcap_bytes, mcap_bytes.size() * 2 / 3, dir / "cut.mcap");
+  const auto [rc_m, streamed] = run("info --bag " + mcap_cut.string());
+  EXPECT_EQ(rc_m, 0) << streamed;
+  const std::uint64_t readable = number_after(streamed, "the file stops being readable at byte ");
+  EXPECT_LT(readable, mcap_bytes.size() * 2 / 3);
+  EXPECT_GT(readable, mcap_bytes.size() / 3);
+  // rosbag2 sqlite3 cut in half: exit 2 naming the file.
+  const fs::path db3 = simulate(dir / "db3", "db3", "hesai", "odometry", "--duration-s 4");
+  fs::path db3_file;
+  for (const auto& e : fs::directory_iterator(db3)) {
+    if (e.path().extension() == ".db3") db3_file = e.path();
+  }
+  const std::string db3_bytes = io::read_file(db3_file);
+  const fs::path db3_cut = cut_copy(db3_bytes, db3_bytes.size() / 2, dir / "cut.db3");
+  expect_exit_2_nothing_written("calibrate --bag " + db3_cut.string(), dir / "out_db3", {db3_cut.string(), "truncated"});
   fs::remove_all(dir);
 }
 

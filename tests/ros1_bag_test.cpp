@@ -311,32 +311,64 @@ std::uint64_t byte_of(const InputError& e) {
   return e.location().size() > 5 ? std::stoull(e.location().substr(5)) : 0;
 }
 
-// A bag cut off in the middle of a chunk lost its index: it is scanned, whole chunks are read.
-TEST(Ros1Bag, CutOffBagIsScannedUpToItsLastWholeChunk) {
+constexpr OpenOptions kReadCutOff{true};
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// The number after `prefix` in `text` (0 when absent, with a failure).
+std::uint64_t number_after(const std::string& text, const std::string& prefix) {
+  const std::size_t at = text.find(prefix);
+  EXPECT_NE(at, std::string::npos) << prefix << " in: " << text;
+  return at == std::string::npos ? 0 : std::stoull(text.substr(at + prefix.size()));
+}
+
+// Every message a cut bag lists reads back as written, the lost ones are the last ones; returns
+// how many are listed. A scan meets the topics in the order of their first messages: by name.
+std::size_t expect_written_prefix(const BagReader& bag, const Written& w) {
+  std::size_t listed = 0;
+  for (std::uint32_t t = 0; t < bag.topics().size(); ++t) {
+    const auto refs = bag.messages(t);
+    const auto& written = w.messages[bag.topics()[t].name.back() - '0'];
+    EXPECT_LE(refs.size(), written.size());
+    for (std::size_t i = 0; i < refs.size() && i < written.size(); ++i) EXPECT_EQ(bag.read(refs[i]), written[i].second);
+    listed += refs.size();
+  }
+  return listed;
+}
+
+// A bag cut off in the middle of a chunk (its index lost with it): exit 2 by default, naming the
+// cut chunk's byte, the file's end and the way on; input.read_cut_off reads the whole chunks
+// before it with a warning.
+TEST(Ros1Bag, CutOffMidChunkIsAnErrorUnlessReadCutOff) {
   const fs::path dir = temp_dir();
   for (Compression compression : {Compression::kNone, Compression::kLz4}) {
+    SCOPED_TRACE(static_cast<int>(compression));
     const Written w = write_random_bag(dir / "full.bag", compression, 8192, 3);
     const std::string full = slurp(dir / "full.bag");
     const std::size_t cut = index_pos(full) * 2 / 3;
     spit(dir / "cut.bag", full.substr(0, cut));
-    const auto bag = open_ros1_bag(dir / "cut.bag");
+    const InputError e = catch_input_error([&] { (void)open_ros1_bag(dir / "cut.bag"); });
+    const std::string what = e.what();
+    EXPECT_EQ(e.file(), (dir / "cut.bag").string());
+    const std::uint64_t chunk_at = byte_of(e);
+    EXPECT_LT(chunk_at, cut);
+    EXPECT_GT(chunk_at + 7 * 8192, cut);  // at most the big message's chunk back
+    EXPECT_TRUE(has(what, "cut off mid-chunk: the chunk starting at byte " + std::to_string(chunk_at))) << what;
+    EXPECT_TRUE(has(what, "the file ends at byte " + std::to_string(cut))) << what;
+    EXPECT_TRUE(has(what, compression == Compression::kLz4 ? "(lz4 compression)" : "(none compression)")) << what;
+    EXPECT_TRUE(has(what, "`rosbag reindex` cannot recover a partial chunk")) << what;
+    const std::uint64_t whole = number_after(what, "--set input.read_cut_off=true reads the ");
+
+    const auto bag = open_ros1_bag(dir / "cut.bag", kReadCutOff);
     ASSERT_EQ(bag->warnings().size(), 1u);
     const std::string& warning = bag->warnings()[0];
-    EXPECT_NE(warning.find("lies past the end of the file"), std::string::npos) << warning;
-    EXPECT_NE(warning.find("stopped at byte "), std::string::npos) << warning;
-    const std::uint64_t stopped = std::stoull(warning.substr(warning.find("stopped at byte ") + 16));
-    EXPECT_LT(stopped, cut);
-    EXPECT_GT(stopped + 7 * 8192, cut);  // the cut chunk's start: at most the big message's chunk back
-    // Every message listed reads back as written; the ones lost are the last ones.
-    // A scan meets the topics in the order of their first messages: matched by name.
-    std::size_t listed = 0, total = 0;
-    for (std::uint32_t t = 0; t < bag->topics().size(); ++t) {
-      const auto refs = bag->messages(t);
-      const auto& written = w.messages[bag->topics()[t].name.back() - '0'];
-      ASSERT_LE(refs.size(), written.size());
-      for (std::size_t i = 0; i < refs.size(); ++i) EXPECT_EQ(bag->read(refs[i]), written[i].second);
-      listed += refs.size();
-    }
+    EXPECT_TRUE(has(warning, "lies past the end of the file")) << warning;
+    EXPECT_TRUE(has(warning, "read " + std::to_string(whole) + " chunks in file order")) << warning;
+    EXPECT_EQ(number_after(warning, "stopped at byte "), chunk_at) << warning;
+    EXPECT_TRUE(has(warning, "input.read_cut_off")) << warning;
+    const std::size_t listed = expect_written_prefix(*bag, w);
+    EXPECT_TRUE(has(what, "(" + std::to_string(listed) + " messages over ")) << what;
+    std::size_t total = 0;
     for (const auto& m : w.messages) total += m.size();
     EXPECT_GT(listed, total / 3);
     EXPECT_LT(listed, total);
@@ -344,8 +376,45 @@ TEST(Ros1Bag, CutOffBagIsScannedUpToItsLastWholeChunk) {
   fs::remove_all(dir);
 }
 
+// Not closed (index_pos 0, or the index gone) but ending where a chunk starts, or inside the
+// index data behind a whole chunk: no message is lost, it is read with a warning.
+TEST(Ros1Bag, UnclosedBagEndingAtAChunkBoundaryIsReadWithAWarning) {
+  const fs::path dir = temp_dir();
+  const Written w = write_random_bag(dir / "full.bag", Compression::kLz4, 8192, 3);
+  std::string full = slurp(dir / "full.bag");
+  const std::uint64_t index = index_pos(full);
+  spit(dir / "cut.bag", full.substr(0, index * 2 / 3));
+  const std::string scanned = open_ros1_bag(dir / "cut.bag", kReadCutOff)->warnings().at(0);
+  const std::uint64_t boundary = number_after(scanned, "stopped at byte ");  // where the cut chunk starts
+  const std::uint64_t chunks = number_after(scanned, "read ");
+  const AllMessages expected = read_all(*open_ros1_bag(dir / "cut.bag", kReadCutOff));
+  set_index_pos(full, 0);
+  struct Case {
+    std::uint64_t end;
+    const char* says;
+  };
+  for (const Case& c : {Case{boundary, "to the end of the file"}, Case{boundary - 5, "stopped at byte "}}) {
+    SCOPED_TRACE(c.end);
+    spit(dir / "unclosed.bag", full.substr(0, c.end));
+    const auto bag = open_ros1_bag(dir / "unclosed.bag");
+    ASSERT_EQ(bag->warnings().size(), 1u);
+    const std::string& warning = bag->warnings()[0];
+    EXPECT_TRUE(has(warning, "index_pos is 0: the recording was not closed")) << warning;
+    EXPECT_TRUE(has(warning, "read " + std::to_string(chunks) + " chunks in file order, " + c.says)) << warning;
+    EXPECT_FALSE(has(warning, "read_cut_off")) << warning;
+    EXPECT_TRUE(read_all(*bag) == expected);
+  }
+  // The whole bag without its index: every message.
+  spit(dir / "unindexed.bag", full.substr(0, index));
+  const auto all = open_ros1_bag(dir / "unindexed.bag");
+  EXPECT_TRUE(has(all->warnings().at(0), "to the end of the file")) << all->warnings()[0];
+  EXPECT_EQ(expect_written_prefix(*all, w), 300u);
+  fs::remove_all(dir);
+}
+
 // rosbag killed while recording: index_pos 0, the last chunk's header still says 0 bytes (rosbag
-// rewrites it when the chunk closes) and its data is cut mid-record.
+// rewrites it when the chunk closes) and its data is cut mid-record. The file ends inside a chunk:
+// an error by default; input.read_cut_off keeps the unfinished uncompressed chunk's whole records.
 TEST(Ros1Bag, UnclosedRecordingKeepsTheUnfinishedUncompressedChunksWholeRecords) {
   const fs::path dir = temp_dir();
   const Written w = write_random_bag(dir / "full.bag", Compression::kNone, 1u << 20, 5);
@@ -358,19 +427,38 @@ TEST(Ros1Bag, UnclosedRecordingKeepsTheUnfinishedUncompressedChunksWholeRecords)
   set_index_pos(bag, 0);
   const std::size_t cut = index_pos(slurp(dir / "full.bag")) / 2 + 7;
   spit(dir / "unclosed.bag", bag.substr(0, cut));
-  const auto reader = open_ros1_bag(dir / "unclosed.bag");
+  const InputError e = catch_input_error([&] { (void)open_ros1_bag(dir / "unclosed.bag"); });
+  EXPECT_EQ(byte_of(e), kFirstChunkPos);
+  EXPECT_TRUE(has(e.what(), "was never finished")) << e.what();
+  EXPECT_TRUE(has(e.what(), "the file ends at byte " + std::to_string(cut))) << e.what();
+  EXPECT_TRUE(has(e.what(), "no whole chunk comes before it")) << e.what();
+
+  const auto reader = open_ros1_bag(dir / "unclosed.bag", kReadCutOff);
   ASSERT_EQ(reader->warnings().size(), 1u);
   EXPECT_NE(reader->warnings()[0].find("index_pos is 0"), std::string::npos) << reader->warnings()[0];
   EXPECT_NE(reader->warnings()[0].find("read up to its last whole record"), std::string::npos);
-  std::size_t listed = 0;
-  for (std::uint32_t t = 0; t < reader->topics().size(); ++t) {
-    const auto refs = reader->messages(t);
-    const auto& written = w.messages[reader->topics()[t].name.back() - '0'];
-    for (std::size_t i = 0; i < refs.size(); ++i) EXPECT_EQ(reader->read(refs[i]), written[i].second);
-    listed += refs.size();
-  }
+  const std::size_t listed = expect_written_prefix(*reader, w);
   EXPECT_GT(listed, 100u);
   EXPECT_LT(listed, 300u);
+  fs::remove_all(dir);
+}
+
+// A cut inside a chunk's header: too little is left to tell the record, it counts as a cut chunk.
+TEST(Ros1Bag, CutInsideAChunkHeaderIsACutChunk) {
+  const fs::path dir = temp_dir();
+  write_random_bag(dir / "full.bag", Compression::kBz2, 8192, 3);
+  std::string full = slurp(dir / "full.bag");
+  set_index_pos(full, 0);
+  spit(dir / "cut.bag", full.substr(0, kFirstChunkPos + 2));
+  InputError e = catch_input_error([&] { (void)open_ros1_bag(dir / "cut.bag"); });
+  EXPECT_EQ(byte_of(e), kFirstChunkPos);
+  EXPECT_TRUE(has(e.what(), "its header is cut off: most likely a chunk")) << e.what();
+  // The writer's chunk header: compression (19 bytes), size (13), op (8); then the data length.
+  spit(dir / "cut.bag", full.substr(0, kFirstChunkPos + 4 + 40 + 2));
+  e = catch_input_error([&] { (void)open_ros1_bag(dir / "cut.bag"); });
+  EXPECT_EQ(byte_of(e), kFirstChunkPos);
+  EXPECT_TRUE(has(e.what(), "cut off mid-chunk: the chunk starting at byte " + std::to_string(kFirstChunkPos) +
+                                " (bz2 compression) is cut before its data length")) << e.what();
   fs::remove_all(dir);
 }
 

@@ -191,7 +191,7 @@ std::optional<ClockGapExplanation> explain_clock_gap(double gap_s, double tolera
 }
 
 BagDatasets load_bag(const BagOptions& options) {
-  return load_bag(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path)), options);
+  return load_bag(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path, {options.read_cut_off})), options);
 }
 
 BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options) {
@@ -246,7 +246,7 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
 }
 
 BagTrajectory load_bag_trajectory(const BagOptions& options) {
-  return load_bag_trajectory(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path)), options);
+  return load_bag_trajectory(std::shared_ptr<const bag::BagReader>(bag::open_bag(options.path, {options.read_cut_off})), options);
 }
 
 BagTrajectory load_bag_trajectory(std::shared_ptr<const bag::BagReader> reader, const BagOptions& options) {

@@ -46,6 +46,7 @@ struct BagOptions {
   std::optional<std::filesystem::path> init;       ///< --init (OpenCalib JSON), given to every LiDAR
   std::optional<std::filesystem::path> fiducials;  ///< --fiducials ("# wgs84" first line: geodetic)
   double ins_time_shift_s = 0.0;              ///< added to every INS stamp (a clock offset already known)
+  bool read_cut_off = false;                  ///< input.read_cut_off (bag::OpenOptions)
 };
 
 /// What is known of a whole-second clock difference.

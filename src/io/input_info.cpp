@@ -60,6 +60,7 @@ BagOptions trajectory_options(const InputSpec& spec, const InputConfig& config) 
   o.ins_topic = spec.ins_topic;
   o.world_frame = spec.world_frame, o.ins_frame = spec.ins_frame;
   if (config.clock_offset_s) o.ins_time_shift_s = -*config.clock_offset_s;
+  o.read_cut_off = config.read_cut_off;
   return o;
 }
 
@@ -73,7 +74,7 @@ std::string choices(const InputSpec& spec) {
 // exit 2 here as there); a recording without LiDAR: its INS trajectory alone, an INS that cannot
 // be read a note (nothing would be calibrated from it); neither: the listing.
 void describe_recording_input(const InputSpec& spec, const InputConfig& config, const InfoSink& out, std::size_t sample_frames) {
-  const std::unique_ptr<bag::BagReader> reader = bag::open_bag(spec.bag);
+  const std::unique_ptr<bag::BagReader> reader = bag::open_bag(spec.bag, {config.read_cut_off});
   out(describe_recording(*reader));
   if (has_type(*reader, true)) {
     const LoadedInput input = load_input(spec, config);

@@ -29,6 +29,7 @@ BagOptions bag_options(const InputSpec& spec, const InputConfig& config) {
   if (spec.inits.size() == 1) o.init = spec.inits.front();  // several: set per LiDAR after loading
   o.fiducials = spec.fiducials;
   if (config.clock_offset_s) o.ins_time_shift_s = -*config.clock_offset_s;
+  o.read_cut_off = config.read_cut_off;
   return o;
 }
 

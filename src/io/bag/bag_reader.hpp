@@ -75,10 +75,18 @@ class BagReader {
   virtual const std::filesystem::path& path() const = 0;
 };
 
+/// What a caller allows while opening (the input config's say).
+struct OpenOptions {
+  /// A ROS 1 bag whose file ends inside a chunk: false, an InputError naming the cut chunk's byte;
+  /// true, its whole chunks before the cut are read, with a warning. (MCAP always streams a
+  /// recording without summary to its last whole record, with a warning.)
+  bool read_cut_off = false;
+};
+
 /// Opens any of the containers, detected from the content (magic bytes) or, for a folder, its
 /// `metadata.yaml` or its `.db3` / `.mcap` files in name order (one bag split in several files).
 /// Throws InputError(path, "byte N" or "", what) when it cannot.
-std::unique_ptr<BagReader> open_bag(const std::filesystem::path& path);
+std::unique_ptr<BagReader> open_bag(const std::filesystem::path& path, const OpenOptions& options = {});
 
 /// The type without the ROS 2 "/msg/" infix: "sensor_msgs/msg/PointCloud2" -> "sensor_msgs/PointCloud2".
 std::string normalized_type(const std::string& type);

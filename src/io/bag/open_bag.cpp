@@ -38,7 +38,7 @@ std::string printable_start(std::string_view bytes) {
   return out + "\"";
 }
 
-std::unique_ptr<BagReader> open_bag_file(const fs::path& path) {
+std::unique_ptr<BagReader> open_bag_file(const fs::path& path, const OpenOptions& options) {
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) {
     throw InputError(path.string(), "", fs::exists(path, ec) ? "not a regular file or folder" : "file not found");
@@ -48,19 +48,19 @@ std::unique_ptr<BagReader> open_bag_file(const fs::path& path) {
   std::string first(kMagicProbeBytes, '\0');
   in.read(first.data(), static_cast<std::streamsize>(first.size()));
   first.resize(static_cast<std::size_t>(in.gcount()));
-  if (is_ros1_bag(first)) return open_ros1_bag(path);
+  if (is_ros1_bag(first)) return open_ros1_bag(path, options);
   if (is_mcap(first)) return open_mcap(path);
   if (is_sqlite3(first)) return open_rosbag2_db3(path);
   throw InputError(path.string(), "byte 0",
                    "not a ROS 1 bag, MCAP or rosbag2 sqlite3 file (" + printable_start(first) + ")");
 }
 
-std::unique_ptr<BagReader> open_bag_folder(const fs::path& folder) {
+std::unique_ptr<BagReader> open_bag_folder(const fs::path& folder, const OpenOptions& options) {
   std::vector<std::string> warnings;
   const std::vector<fs::path> files = rosbag2_folder_files(folder, warnings);
   std::vector<std::unique_ptr<BagReader>> parts;
   parts.reserve(files.size());
-  for (const fs::path& file : files) parts.push_back(open_bag_file(file));
+  for (const fs::path& file : files) parts.push_back(open_bag_file(file, options));
   return concatenate_bags(std::move(parts), folder, std::move(warnings));
 }
 
@@ -217,12 +217,12 @@ std::unique_ptr<BagReader> concatenate_bags(std::vector<std::unique_ptr<BagReade
   return std::make_unique<SplitBagReader>(std::move(parts), path, std::move(warnings));
 }
 
-std::unique_ptr<BagReader> open_bag(const std::filesystem::path& path) {
+std::unique_ptr<BagReader> open_bag(const std::filesystem::path& path, const OpenOptions& options) {
   std::error_code ec;
-  if (fs::is_directory(path, ec)) return open_bag_folder(path);
+  if (fs::is_directory(path, ec)) return open_bag_folder(path, options);
   // The yaml of a rosbag2 folder stands for its folder.
-  if (path.filename() == "metadata.yaml" && fs::is_regular_file(path, ec)) return open_bag_folder(path.parent_path());
-  return open_bag_file(path);
+  if (path.filename() == "metadata.yaml" && fs::is_regular_file(path, ec)) return open_bag_folder(path.parent_path(), options);
+  return open_bag_file(path, options);
 }
 
 std::string normalized_type(const std::string& type) {

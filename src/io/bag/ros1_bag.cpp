@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <climits>
+#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <list>
@@ -605,11 +606,14 @@ std::uint64_t scan_chunk_records(Contents& c, Source& src, std::uint64_t begin, 
 // One chunk met by the scan; returns where the scan goes on. rosbag writes a chunk's header with
 // sizes 0 first and rewrites it when the chunk is closed, so a recording that was killed ends in
 // a chunk of "0 bytes" followed by its data: uncompressed, its whole records are still usable.
+bool is_unfinished(const Chunk& chunk, const Record& r, const BagFile& file) {
+  return chunk.data_len == 0 && chunk.size == 0 && r.end() < file.size();
+}
+
 std::uint64_t scan_chunk(Contents& c, const BagFile& file, const Record& r, std::string& note) {
   Chunk chunk = chunk_from_record(r);
   const auto id = static_cast<std::uint32_t>(c.chunks.size());
-  const bool unfinished = chunk.data_len == 0 && chunk.size == 0 && r.end() < file.size();
-  if (!unfinished) {
+  if (!is_unfinished(chunk, r, file)) {
     c.chunks.push_back(chunk);
     const Bytes data = decompress_chunk(file, chunk);
     ChunkSource src(data, c.chunks[id], file.name());
@@ -630,34 +634,86 @@ std::uint64_t scan_chunk(Contents& c, const BagFile& file, const Record& r, std:
   return end;
 }
 
-void load_scanned(Contents& c, const BagFile& file, std::uint64_t first, const std::string& why) {
-  c.indexed = false;
-  FileSource src(file, file.size());
-  std::uint64_t pos = first;
-  std::string stop, note;
-  while (pos < file.size()) {
-    Record r;
-    try {
-      r = read_record(src, pos);
-    } catch (const InputError& e) {
-      stop = problem_of(e);
-      break;
-    }
-    if (r.op == ros1::kOpChunk) {
-      pos = scan_chunk(c, file, r, note);
-      continue;
-    }
-    if (r.op == ros1::kOpConnection) {
-      add_connection(c, r, src);
-    } else if (r.op != ros1::kOpIndexData && r.op != ros1::kOpChunkInfo) {
-      r.where.fail("out of place: " + op_name(r.op) + " between chunks");
-    }
-    pos = r.end();
+// What is left of the record at `pos` that the file ends inside: the fields of its header before
+// the end (a field cut in half is left out) and, when its data length is there, where it would end.
+struct CutRecord {
+  Fields fields;
+  std::optional<std::uint64_t> end;
+  std::optional<std::uint8_t> op() const {
+    const std::string* op = fields.find("op");
+    if (op == nullptr || op->size() != 1) return std::nullopt;
+    return static_cast<std::uint8_t>((*op)[0]);
   }
-  c.warnings.push_back("not indexed (" + why + "): read " + std::to_string(c.chunks.size()) +
-                       " chunks in file order, " +
-                       (stop.empty() ? "to the end of the file" : "stopped at " + at_byte(pos) + " (" + stop + ")") +
-                       note);
+};
+
+CutRecord cut_record(const BagFile& file, std::uint64_t pos) {
+  CutRecord cut;
+  if (pos > file.size() || file.size() - pos < 4) return cut;
+  std::uint8_t length[4];
+  file.read(pos, length, 4);
+  const std::uint64_t header_len = le32(length);
+  Bytes header(static_cast<std::size_t>(std::min<std::uint64_t>({header_len, kMaxRecordHeaderBytes, file.size() - pos - 4})));
+  file.read(pos + 4, header.data(), header.size());
+  (void)parse_fields(header, cut.fields);
+  if (header.size() == header_len && file.size() - pos - 4 - header_len >= 4) {
+    file.read(pos + 4 + header_len, length, 4);
+    cut.end = pos + 8 + header_len + le32(length);
+  }
+  return cut;
+}
+
+// A chunk that the file ends inside: its data is partly lost.
+struct CutChunk {
+  std::uint64_t pos = 0;           ///< where the chunk record starts
+  std::string how;                 ///< what the chunk claims, for the error
+  std::uint32_t whole_chunks = 0;  ///< the chunks before it
+};
+
+// The chunk (or the record of unknown kind: chunks are what rosbag writes most) the file ends in.
+CutChunk cut_chunk(const CutRecord& record, std::uint64_t pos, const Contents& c) {
+  CutChunk cut;
+  cut.pos = pos;
+  cut.whole_chunks = static_cast<std::uint32_t>(c.chunks.size());
+  if (!record.op()) {
+    cut.how = "(its header is cut off: most likely a chunk)";
+  } else {
+    const std::string* compression = record.fields.find("compression");
+    cut.how = "(" + (compression != nullptr ? *compression : std::string("unknown")) + " compression) " +
+              (record.end ? "needs the bytes up to " + std::to_string(*record.end) : std::string("is cut before its data length"));
+  }
+  return cut;
+}
+
+// Exit 2 for a cut chunk unless input.read_cut_off: what is lost, what remains, how to go on.
+[[noreturn]] void fail_cut_off(const Contents& c, const BagFile& file, const CutChunk& cut) {
+  std::size_t messages = 0;
+  std::int64_t first_ns = 0, last_ns = 0;
+  for (const auto& refs : c.messages) {
+    for (const MessageRef& m : refs) {
+      if (m.locator >= cut.whole_chunks) continue;
+      first_ns = messages == 0 ? m.log_time_ns : std::min(first_ns, m.log_time_ns);
+      last_ns = messages == 0 ? m.log_time_ns : std::max(last_ns, m.log_time_ns);
+      ++messages;
+    }
+  }
+  std::string rest;
+  if (cut.whole_chunks == 0) {
+    rest = "no whole chunk comes before it, so --set input.read_cut_off=true would find no message either";
+  } else {
+    char span[32];
+    std::snprintf(span, sizeof span, "%.1f", static_cast<double>(last_ns - first_ns) / kNsPerSecond);
+    rest = "--set input.read_cut_off=true reads the " + std::to_string(cut.whole_chunks) + " whole chunk" +
+           (cut.whole_chunks == 1 ? "" : "s") + " before it (" + std::to_string(messages) + " messages over " + span +
+           " s of recording) and warns";
+  }
+  throw InputError(file.name(), at_byte(cut.pos),
+                   "cut off mid-chunk: the chunk starting at byte " + std::to_string(cut.pos) + " " + cut.how +
+                       ", but the file ends at byte " + std::to_string(file.size()) +
+                       " (the recording was not closed, or the file was truncated). `rosbag reindex` cannot recover a "
+                       "partial chunk; " + rest);
+}
+
+void count_scanned(Contents& c) {
   bool first_message = true;
   for (std::size_t t = 0; t < c.topics.size(); ++t) {
     c.topics[t].message_count = c.messages[t].size();
@@ -669,7 +725,51 @@ void load_scanned(Contents& c, const BagFile& file, std::uint64_t first, const s
   }
 }
 
-Contents load(const BagFile& file) {
+// The records after `first` in file order. A file ending inside a chunk (one cut in half, or an
+// unfinished one) fails unless options.read_cut_off; ending between chunks or inside the index
+// data behind a whole chunk loses no message: a warning says what was read.
+void load_scanned(Contents& c, const BagFile& file, std::uint64_t first, const std::string& why, const OpenOptions& options) {
+  c.indexed = false;
+  FileSource src(file, file.size());
+  std::uint64_t pos = first;
+  std::string stop, note;
+  std::optional<CutChunk> cut;
+  while (pos < file.size()) {
+    Record r;
+    try {
+      r = read_record(src, pos);
+    } catch (const CutOff& e) {
+      stop = problem_of(e);
+      const CutRecord record = cut_record(file, pos);
+      if (!cut && (!record.op() || *record.op() == ros1::kOpChunk)) cut = cut_chunk(record, pos, c);
+      break;
+    } catch (const InputError& e) {
+      stop = problem_of(e);
+      break;
+    }
+    if (r.op == ros1::kOpChunk) {
+      if (!cut && is_unfinished(chunk_from_record(r), r, file)) {
+        cut = CutChunk{pos, "was never finished (its header still says 0 bytes)", static_cast<std::uint32_t>(c.chunks.size())};
+      }
+      pos = scan_chunk(c, file, r, note);
+      continue;
+    }
+    if (r.op == ros1::kOpConnection) {
+      add_connection(c, r, src);
+    } else if (r.op != ros1::kOpIndexData && r.op != ros1::kOpChunkInfo) {
+      r.where.fail("out of place: " + op_name(r.op) + " between chunks");
+    }
+    pos = r.end();
+  }
+  if (cut && !options.read_cut_off) fail_cut_off(c, file, *cut);
+  c.warnings.push_back("not indexed (" + why + "): read " + std::to_string(c.chunks.size()) +
+                       " chunks in file order, " +
+                       (stop.empty() ? "to the end of the file" : "stopped at " + at_byte(pos) + " (" + stop + ")") + note +
+                       (cut ? "; read because input.read_cut_off is true" : ""));
+  count_scanned(c);
+}
+
+Contents load(const BagFile& file, const OpenOptions& options) {
   FileSource src(file, file.size());
   if (file.size() < ros1::kMagic.size() ||
       std::memcmp(src.get(0, ros1::kMagic.size(), "the magic").data(), ros1::kMagic.data(), ros1::kMagic.size()) != 0) {
@@ -680,11 +780,12 @@ Contents load(const BagFile& file) {
   const std::uint32_t connections = header.u32("conn_count"), chunks = header.u32("chunk_count");
   Contents c;
   if (index_pos == 0) {
-    load_scanned(c, file, header.end(), "index_pos is 0: the recording was not closed");
+    load_scanned(c, file, header.end(), "index_pos is 0: the recording was not closed", options);
   } else if (index_pos > file.size() || (index_pos == file.size() && connections + chunks > 0)) {
     load_scanned(c, file, header.end(),
                  "its index at " + at_byte(index_pos) + " lies past the end of the file at " + at_byte(file.size()) +
-                     ": the file is cut off");
+                     ": the file is cut off",
+                 options);
   } else if (index_pos < header.end()) {
     header.where.fail("index_pos " + std::to_string(index_pos) + " points into the bag header");
   } else {
@@ -693,7 +794,7 @@ Contents load(const BagFile& file) {
       infos = read_index_section(c, file, index_pos, connections, chunks);
     } catch (const CutOff&) {
       c = Contents{};
-      load_scanned(c, file, header.end(), "its index at " + at_byte(index_pos) + " is cut off");
+      load_scanned(c, file, header.end(), "its index at " + at_byte(index_pos) + " is cut off", options);
       return c;
     }
     load_indexed(c, file, std::move(infos));
@@ -703,7 +804,8 @@ Contents load(const BagFile& file) {
 
 class Ros1BagReader final : public BagReader {
  public:
-  explicit Ros1BagReader(const std::filesystem::path& path) : path_(path), file_(path), c_(load(file_)) {
+  Ros1BagReader(const std::filesystem::path& path, const OpenOptions& options)
+      : path_(path), file_(path), c_(load(file_, options)) {
     for (auto& refs : c_.messages) {
       std::sort(refs.begin(), refs.end(), [](const MessageRef& a, const MessageRef& b) {
         return std::tie(a.log_time_ns, a.locator, a.locator2) < std::tie(b.log_time_ns, b.locator, b.locator2);
@@ -850,8 +952,8 @@ std::string Ros1BagReader::describe() const {
 
 }  // namespace
 
-std::unique_ptr<BagReader> open_ros1_bag(const std::filesystem::path& path) {
-  return std::make_unique<Ros1BagReader>(path);
+std::unique_ptr<BagReader> open_ros1_bag(const std::filesystem::path& path, const OpenOptions& options) {
+  return std::make_unique<Ros1BagReader>(path, options);
 }
 
 bool is_ros1_bag(std::string_view first_bytes) { return first_bytes.substr(0, ros1::kMagic.size()) == ros1::kMagic; }

@@ -15,8 +15,10 @@
 namespace insalign::io::bag {
 
 /// Opens a ROS 1 bag v2.0. Throws InputError(path, "byte N", what) when it is not one or its
-/// header or index is corrupt; an unindexed or cut-off bag is scanned with a warning.
-std::unique_ptr<BagReader> open_ros1_bag(const std::filesystem::path& path);
+/// header or index is corrupt. A bag without a usable index (not closed, or cut off) is scanned
+/// with a warning; if its file ends inside a chunk, that is an InputError naming the cut chunk's
+/// byte and the file's end unless options.read_cut_off (then the whole chunks before it are read).
+std::unique_ptr<BagReader> open_ros1_bag(const std::filesystem::path& path, const OpenOptions& options = {});
 
 /// A writer of ROS 1 bag v2.0 files (compression none, bz2 or lz4; zstd is refused with an
 /// InputError naming path). The file appears at `path` only on close().
