@@ -58,6 +58,7 @@ const Sweep& FrameStore::reduced(std::size_t index) const {
     // No stage reads intensities: a fifth less memory per stored point (12 B position + 4 B time).
     sweep.intensity = {};
     slot.sweep = std::make_unique<const Sweep>(std::move(sweep));
+    slot.done.store(true, std::memory_order_release);
     ++cache_->decoded;
   });
   return *slot.sweep;

@@ -96,11 +96,15 @@ class FrameStore {
   std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const;
 
   std::size_t frames_decoded() const { return cache_->decoded.load(); }
+  /// Whether frame `index` is already decoded (readers that may pick any frame of a slice of the
+  /// drive pick a decoded one: core/frames.hpp spread_over_motion).
+  bool is_decoded(std::size_t index) const { return cache_->slots[index].done.load(std::memory_order_acquire); }
 
  private:
   struct Slot {
     std::once_flag once;
     std::unique_ptr<const Sweep> sweep;
+    std::atomic<bool> done{false};
   };
   struct Cache {
     explicit Cache(std::size_t n) : slots(new Slot[n]) {}

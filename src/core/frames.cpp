@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "core/frame_store.hpp"
 #include "core/voxel_grid.hpp"
@@ -91,6 +92,7 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s, double m
     if (!sweep_covered(poses, infos[i].t_end_s, period, time_offset_s, margin_s)) continue;
     if (store.excluded(t_ins - 1.1 * period - margin_s, t_ins + margin_s)) continue;
     out.index.push_back(i);
+    out.decoded.push_back(store.is_decoded(i));
     out.t_end_s.push_back(infos[i].t_end_s);
     out.T_world_ins.push_back(poses.T_world_ins(t_ins));
   }
@@ -107,6 +109,28 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s, double m
   return out;
 }
 
+namespace {
+
+// Within the slice [lo, hi] of the motion measure: the decoded frame nearest `target`, else `k`.
+std::size_t prefer_decoded(const DriveFrames& frames, std::size_t k, double target, double lo, double hi,
+                           std::size_t first, std::size_t last) {
+  if (frames.decoded.empty() || frames.decoded[k]) return k;
+  std::size_t best = k;
+  double best_d = std::numeric_limits<double>::infinity();
+  for (std::size_t j = k; j >= first && frames.motion_m[j] >= lo; --j) {
+    if (frames.decoded[j]) best = j, best_d = target - frames.motion_m[j];
+    if (frames.decoded[j] || j == 0) break;
+  }
+  for (std::size_t j = k + 1; j <= last && frames.motion_m[j] <= hi; ++j) {
+    if (!frames.decoded[j]) continue;
+    if (frames.motion_m[j] - target < best_d) best = j;
+    break;
+  }
+  return best;
+}
+
+}  // namespace
+
 std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first,
                                             std::size_t last) {
   std::vector<std::size_t> out;
@@ -114,11 +138,13 @@ std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size
   last = std::min(last, frames.size() - 1);
   if (first > last) return out;
   const double s0 = frames.motion_m[first], span = frames.motion_m[last] - s0;
+  const double slice = span / static_cast<double>(n);
   std::size_t k = first;
   for (std::size_t i = 0; i < n; ++i) {
-    const double target = s0 + span * (static_cast<double>(i) + 0.5) / static_cast<double>(n);
+    const double target = s0 + slice * (static_cast<double>(i) + 0.5);
     while (k < last && frames.motion_m[k] < target) ++k;
-    if (out.empty() || out.back() != k) out.push_back(k);
+    const std::size_t pick = prefer_decoded(frames, k, target, target - 0.5 * slice, target + 0.5 * slice, first, last);
+    if (out.empty() || out.back() < pick) out.push_back(pick);
   }
   return out;
 }

@@ -87,6 +87,7 @@ struct DriveFrames {
   double distance_m = 0.0;           ///< path length over these frames
   double turned_rad = 0.0;           ///< total rotation angle over these frames
   std::size_t moving = 0;            ///< frames that moved since the previous one
+  std::vector<char> decoded;         ///< the frame's sweep is already in the store (empty: unknown)
   std::size_t size() const { return index.size(); }
 };
 class FrameStore;
@@ -95,7 +96,9 @@ class FrameStore;
 DriveFrames drive_frames(const FrameStore& store, double time_offset_s = 0.0, double margin_s = 0.0);
 
 /// Positions (into `frames`) of up to n frames at the centres of n equal slices of the motion
-/// measure between positions first and last (inclusive; default: all), without repeats.
+/// measure between positions first and last (inclusive; default: all), without repeats. A slice
+/// whose centre frame is not decoded yet takes its decoded frame nearest the centre if it has one:
+/// the steps after stage 1 then share sweeps instead of decoding new ones.
 std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first = 0,
                                             std::size_t last = static_cast<std::size_t>(-1));
 
