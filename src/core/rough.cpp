@@ -78,97 +78,115 @@ struct Accum {
 /// extrinsic. Each plane is refitted to its points at this extrinsic with Cauchy weights per
 /// cluster, so the cost is the point-to-plane cost minimised over the planes (BALM's eigenvalue
 /// cost), and the Schur complement gives the joint Gauss-Newton step.
+// One plane's clusters placed at the current extrinsic: cluster c's points map to the world as
+// A[c] p + b[c]. Reused per thread.
+struct PlaneScratch {
+  std::vector<Mat3> A;
+  std::vector<Vec3> b;
+  std::vector<double> w, e;  // Cauchy weights, squared distances per cluster
+};
+
+struct PlaneFit {
+  Vec3 centre, normal, u, v;  // normal: the smallest eigenvector; u, v span the plane
+};
+
+// The plane through the clusters, fitted twice: the second time with the Cauchy IRLS weights of
+// each cluster's RMS distance from the first; leaves the final weights and distances in `s`.
+PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, PlaneScratch& s) {
+  PlaneFit f;
+  const std::size_t nc = s.A.size();
+  for (int pass = 0; pass < 2; ++pass) {
+    double N = 0.0;
+    Vec3 S1 = Vec3::Zero();
+    Mat3 S2 = Mat3::Zero();
+    for (std::size_t c = 0; c < nc; ++c) {
+      const Mat4& M = problem.clusters[c0 + c].M;
+      const double n = M(0, 0);
+      const Vec3 As1 = s.A[c] * M.block<3, 1>(1, 0);
+      N += s.w[c] * n;
+      S1 += s.w[c] * (n * s.b[c] + As1);
+      S2 += s.w[c] * (s.A[c] * M.block<3, 3>(1, 1) * s.A[c].transpose() + As1 * s.b[c].transpose() +
+                      s.b[c] * As1.transpose() + n * s.b[c] * s.b[c].transpose());
+    }
+    f.centre = S1 / N;
+    const Eigen::SelfAdjointEigenSolver<Mat3> eig(S2 / N - f.centre * f.centre.transpose());
+    f.normal = eig.eigenvectors().col(0);
+    f.u = eig.eigenvectors().col(1);
+    f.v = eig.eigenvectors().col(2);
+    for (std::size_t c = 0; c < nc; ++c) {
+      Eigen::Vector4d h;
+      h << f.normal.dot(s.b[c] - f.centre), s.A[c].transpose() * f.normal;
+      const Mat4& M = problem.clusters[c0 + c].M;
+      s.e[c] = h.dot(M * h);
+      s.w[c] = 1.0 / (1.0 + s.e[c] / M(0, 0) / s2);
+    }
+  }
+  return f;
+}
+
+// The plane's cost and, with derivatives, its Gauss-Newton terms with the plane's own three
+// parameters eliminated (Schur complement), into acc.
+void accumulate_plane(const Problem& problem, std::size_t c0, const Mat3& R, double s2, bool derivatives,
+                      const PlaneFit& f, const PlaneScratch& s, Accum& acc) {
+  Mat6 Hpp = Mat6::Zero();
+  Mat63 Hpl = Mat63::Zero();
+  Mat3 Hll = Mat3::Zero();
+  Vec6 gp = Vec6::Zero();
+  Vec3 gl = Vec3::Zero();
+  for (std::size_t c = 0; c < s.A.size(); ++c) {
+    const Mat4& M = problem.clusters[c0 + c].M;
+    const double n = M(0, 0);
+    acc.cost += n * s2 * std::log1p(s.e[c] / (n * s2));
+    acc.weighted_sq += s.w[c] * s.e[c];
+    acc.weighted_n += s.w[c] * n;
+    if (!derivatives) continue;
+    const Mat3& R_wi = problem.T_world_ins[problem.clusters[c0 + c].frame].linear();
+    Eigen::Vector4d h;
+    h << f.normal.dot(s.b[c] - f.centre), s.A[c].transpose() * f.normal;
+    // Per point r = h^T [1; p]. Pose Jacobian (rho, w) = P [1; p], plane Jacobian = L [1; p].
+    const Vec3 m = R_wi.transpose() * f.normal;
+    Mat64 P = Mat64::Zero();
+    P.block<3, 1>(0, 0) = m;
+    P.block<3, 3>(3, 1) = -skew(m) * R;
+    Mat34 L = Mat34::Zero();
+    L(0, 0) = f.u.dot(s.b[c] - f.centre);
+    L.block<1, 3>(0, 1) = (s.A[c].transpose() * f.u).transpose();
+    L(1, 0) = f.v.dot(s.b[c] - f.centre);
+    L.block<1, 3>(1, 1) = (s.A[c].transpose() * f.v).transpose();
+    L(2, 0) = -1.0;
+    const Mat64 PM = s.w[c] * P * M;
+    const Mat34 LM = s.w[c] * L * M;
+    Hpp += PM * P.transpose();
+    Hpl += PM * L.transpose();
+    Hll += LM * L.transpose();
+    gp += PM * h;
+    gl += LM * h;
+  }
+  if (!derivatives) return;
+  Hll += 1e-9 * Mat3::Identity();
+  const Eigen::LDLT<Mat3> ldlt(Hll);
+  acc.H += Hpp - Hpl * ldlt.solve(Hpl.transpose());
+  acc.g += gp - Hpl * ldlt.solve(gl);
+}
+
 Accum evaluate(const Problem& problem, const Iso3& T_ins_lidar, double robust_scale_m, bool derivatives) {
   const Mat3 R = T_ins_lidar.linear();
   const Vec3 t = T_ins_lidar.translation();
   const double s2 = robust_scale_m * robust_scale_m;
   auto body = [&](const tbb::blocked_range<std::size_t>& range, Accum acc) {
-    std::vector<Mat3> A;
-    std::vector<Vec3> b;
-    std::vector<double> w;
+    PlaneScratch s;
     for (std::size_t j = range.begin(); j != range.end(); ++j) {
-      const std::size_t c0 = problem.plane_begin[j], c1 = problem.plane_begin[j + 1];
-      const std::size_t nc = c1 - c0;
-      A.resize(nc);
-      b.resize(nc);
-      w.assign(nc, 1.0);
+      const std::size_t c0 = problem.plane_begin[j], nc = problem.plane_begin[j + 1] - c0;
+      s.A.resize(nc);
+      s.b.resize(nc);
+      s.e.resize(nc);
+      s.w.assign(nc, 1.0);
       for (std::size_t c = 0; c < nc; ++c) {
         const Iso3& T_wi = problem.T_world_ins[problem.clusters[c0 + c].frame];
-        A[c] = T_wi.linear() * R;
-        b[c] = T_wi.linear() * t + T_wi.translation();
+        s.A[c] = T_wi.linear() * R;
+        s.b[c] = T_wi.linear() * t + T_wi.translation();
       }
-      Vec3 centre, normal, u, v;
-      std::vector<double> e(nc);  // squared distances per cluster
-      for (int pass = 0; pass < 2; ++pass) {
-        double N = 0.0;
-        Vec3 S1 = Vec3::Zero();
-        Mat3 S2 = Mat3::Zero();
-        for (std::size_t c = 0; c < nc; ++c) {
-          const Mat4& M = problem.clusters[c0 + c].M;
-          const double n = M(0, 0);
-          const Vec3 s1 = M.block<3, 1>(1, 0);
-          const Mat3 m2 = M.block<3, 3>(1, 1);
-          const Vec3 As1 = A[c] * s1;
-          N += w[c] * n;
-          S1 += w[c] * (n * b[c] + As1);
-          S2 += w[c] * (A[c] * m2 * A[c].transpose() + As1 * b[c].transpose() + b[c] * As1.transpose() +
-                        n * b[c] * b[c].transpose());
-        }
-        centre = S1 / N;
-        const Mat3 cov = S2 / N - centre * centre.transpose();
-        const Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
-        normal = eig.eigenvectors().col(0);
-        u = eig.eigenvectors().col(1);
-        v = eig.eigenvectors().col(2);
-        for (std::size_t c = 0; c < nc; ++c) {
-          Eigen::Vector4d h;
-          h << normal.dot(b[c] - centre), A[c].transpose() * normal;
-          const Mat4& M = problem.clusters[c0 + c].M;
-          e[c] = h.dot(M * h);
-          const double mean_sq = e[c] / M(0, 0);
-          w[c] = 1.0 / (1.0 + mean_sq / s2);  // Cauchy IRLS weight on the cluster's RMS distance
-        }
-      }
-      // Second pass ended with weights for the refitted plane; accumulate.
-      Mat6 Hpp = Mat6::Zero();
-      Mat63 Hpl = Mat63::Zero();
-      Mat3 Hll = Mat3::Zero();
-      Vec6 gp = Vec6::Zero();
-      Vec3 gl = Vec3::Zero();
-      for (std::size_t c = 0; c < nc; ++c) {
-        const Mat4& M = problem.clusters[c0 + c].M;
-        const double n = M(0, 0);
-        acc.cost += n * s2 * std::log1p(e[c] / (n * s2));
-        acc.weighted_sq += w[c] * e[c];
-        acc.weighted_n += w[c] * n;
-        if (!derivatives) continue;
-        const Mat3& R_wi = problem.T_world_ins[problem.clusters[c0 + c].frame].linear();
-        Eigen::Vector4d h;
-        h << normal.dot(b[c] - centre), A[c].transpose() * normal;
-        // Per point r = h^T [1; p]. Pose Jacobian (rho, w) = P [1; p], plane Jacobian = L [1; p].
-        const Vec3 m = R_wi.transpose() * normal;
-        Mat64 P = Mat64::Zero();
-        P.block<3, 1>(0, 0) = m;
-        P.block<3, 3>(3, 1) = -skew(m) * R;
-        Mat34 L = Mat34::Zero();
-        L(0, 0) = u.dot(b[c] - centre);
-        L.block<1, 3>(0, 1) = (A[c].transpose() * u).transpose();
-        L(1, 0) = v.dot(b[c] - centre);
-        L.block<1, 3>(1, 1) = (A[c].transpose() * v).transpose();
-        L(2, 0) = -1.0;
-        const Mat64 PM = w[c] * P * M;
-        const Mat34 LM = w[c] * L * M;
-        Hpp += PM * P.transpose();
-        Hpl += PM * L.transpose();
-        Hll += LM * L.transpose();
-        gp += PM * h;
-        gl += LM * h;
-      }
-      if (!derivatives) continue;
-      Hll += 1e-9 * Mat3::Identity();
-      const Eigen::LDLT<Mat3> ldlt(Hll);
-      acc.H += Hpp - Hpl * ldlt.solve(Hpl.transpose());
-      acc.g += gp - Hpl * ldlt.solve(gl);
+      accumulate_plane(problem, c0, R, s2, derivatives, fit_weighted_plane(problem, c0, s2, s), s, acc);
     }
     return acc;
   };

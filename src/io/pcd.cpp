@@ -122,16 +122,115 @@ std::string_view read_all(const std::filesystem::path& path, Scratch& scratch) {
   return {buf, got};
 }
 
-PcdHeader parse_header(std::string_view buf, const std::string& file) {
-  if (buf.empty()) throw InputError(file, "byte 0", "empty file");
-  PcdHeader h;
+// The header's lines as written, before their consistency is checked.
+struct RawHeader {
   std::vector<std::string> names;
   std::vector<int> sizes, counts;
   std::vector<char> types;
+  std::size_t width = 0, height = 0, points = 0;
   bool have_width = false, have_height = false, have_points = false, have_data = false;
+  std::string data;
   std::size_t points_line = 0, fields_line = 0;
+};
+
+// Each value of a list line through `parse`, which says whether it is valid.
+template <class T, class Parse>
+void parse_list(const std::vector<std::string_view>& values, std::vector<T>& out, Parse&& parse,
+                const std::string& file, std::size_t line_no, const std::string& rule) {
+  for (auto v : values) {
+    T x{};
+    if (!parse(v, x)) throw InputError(file, at_line(line_no), rule + ", got '" + std::string(v) + "'");
+    out.push_back(x);
+  }
+}
+
+// One header line (KEY values...) into `raw`.
+void parse_header_line(std::string_view key_token, const std::vector<std::string_view>& values, const std::string& file,
+                       std::size_t line_no, RawHeader& raw) {
+  const std::string key = upper(key_token);
+  if (key == "VERSION" || key == "VIEWPOINT") return;
+  const bool list = key == "FIELDS" || key == "COLUMNS" || key == "SIZE" || key == "TYPE" || key == "COUNT";
+  if (list && values.empty()) throw InputError(file, at_line(line_no), key + " has no values");
+  if (key == "FIELDS" || key == "COLUMNS") {
+    raw.fields_line = line_no;
+    for (auto v : values) raw.names.emplace_back(v);
+  } else if (key == "SIZE") {
+    parse_list(values, raw.sizes, [](std::string_view v, int& s) { return parse_int(v, s) && (s == 1 || s == 2 || s == 4 || s == 8); },
+               file, line_no, "SIZE must be 1, 2, 4 or 8");
+  } else if (key == "TYPE") {
+    parse_list(values, raw.types, [](std::string_view v, char& t) {
+                 t = v.size() == 1 ? static_cast<char>(std::toupper(static_cast<unsigned char>(v[0]))) : '?';
+                 return t == 'F' || t == 'U' || t == 'I';
+               }, file, line_no, "TYPE must be F, U or I");
+  } else if (key == "COUNT") {
+    parse_list(values, raw.counts, [](std::string_view v, int& c) { return parse_int(v, c) && c >= 1 && c <= kMaxCount; },
+               file, line_no, "COUNT must be a positive integer");
+  } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
+    std::size_t n = 0;
+    if (values.size() != 1 || !parse_size(values[0], n) || n > kMaxPoints)
+      throw InputError(file, at_line(line_no), key + " must be one non-negative integer");
+    if (key == "WIDTH") raw.width = n, raw.have_width = true;
+    if (key == "HEIGHT") raw.height = n, raw.have_height = true;
+    if (key == "POINTS") raw.points = n, raw.have_points = true, raw.points_line = line_no;
+  } else if (key == "DATA") {
+    if (values.size() != 1) throw InputError(file, at_line(line_no), "DATA needs exactly one value");
+    raw.data = lower(values[0]);
+    if (raw.data != "ascii" && raw.data != "binary" && raw.data != "binary_compressed")
+      throw InputError(file, at_line(line_no),
+                       "DATA must be ascii, binary or binary_compressed, got '" + std::string(values[0]) + "'");
+    raw.have_data = true;
+  } else {
+    throw InputError(file, at_line(line_no), "unknown header key '" + std::string(key_token) + "' (not a PCD file?)");
+  }
+}
+
+// FIELDS, SIZE, TYPE and COUNT into h.fields with their offsets; x, y, z must be there.
+void build_fields(RawHeader& raw, const std::string& file, std::size_t last_line, PcdHeader& h) {
+  if (raw.names.empty()) throw InputError(file, at_line(last_line), "header has no FIELDS line");
+  if (raw.counts.empty()) raw.counts.assign(raw.names.size(), 1);
+  const std::size_t n = raw.names.size();
+  if (raw.sizes.size() != n || raw.types.size() != n || raw.counts.size() != n) {
+    throw InputError(file, at_line(raw.fields_line),
+                     fmt::format("FIELDS has {} entries but SIZE has {}, TYPE {}, COUNT {}", n, raw.sizes.size(),
+                                 raw.types.size(), raw.counts.size()));
+  }
+  std::size_t offset = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (raw.types[i] == 'F' && raw.sizes[i] != 4 && raw.sizes[i] != 8) {
+      throw InputError(file, at_line(raw.fields_line), "field '" + raw.names[i] + "' is a float of size " +
+                                                           std::to_string(raw.sizes[i]) + " (must be 4 or 8)");
+    }
+    h.fields.push_back({raw.names[i], raw.sizes[i], raw.types[i], raw.counts[i], offset});
+    offset += static_cast<std::size_t>(raw.sizes[i]) * static_cast<std::size_t>(raw.counts[i]);
+  }
+  h.point_bytes = offset;
+  for (const char* axis : {"x", "y", "z"}) {
+    const PcdHeader::Field* f = h.find(axis);
+    if (f == nullptr) throw InputError(file, at_line(raw.fields_line), std::string("no '") + axis + "' field");
+    if (f->count != 1) throw InputError(file, at_line(raw.fields_line), std::string("field '") + axis + "' has COUNT > 1");
+  }
+}
+
+// POINTS, WIDTH and HEIGHT into one consistent point count.
+void resolve_point_count(const RawHeader& raw, const std::string& file, std::size_t last_line, PcdHeader& h) {
+  h.width = raw.width, h.height = raw.height, h.points = raw.points;
+  if (!raw.have_points) {
+    if (!raw.have_width) throw InputError(file, at_line(last_line), "header has neither POINTS nor WIDTH");
+    h.points = h.width * (raw.have_height ? h.height : 1);
+    if (h.points > kMaxPoints) throw InputError(file, at_line(last_line), "WIDTH x HEIGHT is implausibly large");
+  } else if (raw.have_width && raw.have_height && h.width * h.height != h.points) {
+    throw InputError(file, at_line(raw.points_line),
+                     fmt::format("POINTS {} disagrees with WIDTH {} x HEIGHT {}", h.points, h.width, h.height));
+  }
+  if (!raw.have_width) h.width = h.points;
+  if (!raw.have_height) h.height = 1;
+}
+
+PcdHeader parse_header(std::string_view buf, const std::string& file) {
+  if (buf.empty()) throw InputError(file, "byte 0", "empty file");
+  RawHeader raw;
   std::size_t pos = 0, line_no = 0;
-  while (pos < buf.size() && !have_data) {
+  while (pos < buf.size() && !raw.have_data) {
     std::size_t nl = buf.find('\n', pos);
     const bool last = nl == std::string_view::npos;
     if (last) nl = buf.size();
@@ -139,106 +238,21 @@ PcdHeader parse_header(std::string_view buf, const std::string& file) {
     ++line_no;
     pos = last ? buf.size() : nl + 1;
     // A header line is short text; a NUL or other binary here means the header is cut off.
-    for (char c : line) {
-      if (c == '\0') throw InputError(file, at_line(line_no), "binary data inside the header (truncated or not a PCD)");
-    }
+    if (line.find('\0') != std::string_view::npos)
+      throw InputError(file, at_line(line_no), "binary data inside the header (truncated or not a PCD)");
     const auto tok = split_ws(line);
     if (tok.empty() || tok[0].front() == '#') continue;
-    const std::string key = upper(tok[0]);
-    const auto values = std::vector<std::string_view>(tok.begin() + 1, tok.end());
-    const auto need_values = [&] {
-      if (values.empty()) throw InputError(file, at_line(line_no), key + " has no values");
-    };
-    if (key == "VERSION" || key == "VIEWPOINT") {
-      continue;
-    } else if (key == "FIELDS" || key == "COLUMNS") {
-      need_values();
-      fields_line = line_no;
-      for (auto v : values) names.emplace_back(v);
-    } else if (key == "SIZE") {
-      need_values();
-      for (auto v : values) {
-        int s = 0;
-        if (!parse_int(v, s) || (s != 1 && s != 2 && s != 4 && s != 8)) {
-          throw InputError(file, at_line(line_no), "SIZE must be 1, 2, 4 or 8, got '" + std::string(v) + "'");
-        }
-        sizes.push_back(s);
-      }
-    } else if (key == "TYPE") {
-      need_values();
-      for (auto v : values) {
-        const char t = v.size() == 1 ? static_cast<char>(std::toupper(static_cast<unsigned char>(v[0]))) : '?';
-        if (t != 'F' && t != 'U' && t != 'I') {
-          throw InputError(file, at_line(line_no), "TYPE must be F, U or I, got '" + std::string(v) + "'");
-        }
-        types.push_back(t);
-      }
-    } else if (key == "COUNT") {
-      need_values();
-      for (auto v : values) {
-        int c = 0;
-        if (!parse_int(v, c) || c < 1 || c > kMaxCount) {
-          throw InputError(file, at_line(line_no), "COUNT must be a positive integer, got '" + std::string(v) + "'");
-        }
-        counts.push_back(c);
-      }
-    } else if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
-      std::size_t n = 0;
-      if (values.size() != 1 || !parse_size(values[0], n) || n > kMaxPoints) {
-        throw InputError(file, at_line(line_no), key + " must be one non-negative integer");
-      }
-      if (key == "WIDTH") h.width = n, have_width = true;
-      if (key == "HEIGHT") h.height = n, have_height = true;
-      if (key == "POINTS") h.points = n, have_points = true, points_line = line_no;
-    } else if (key == "DATA") {
-      if (values.size() != 1) throw InputError(file, at_line(line_no), "DATA needs exactly one value");
-      h.data = lower(values[0]);
-      if (h.data != "ascii" && h.data != "binary" && h.data != "binary_compressed") {
-        throw InputError(file, at_line(line_no),
-                         "DATA must be ascii, binary or binary_compressed, got '" + std::string(values[0]) + "'");
-      }
-      have_data = true;
-    } else {
-      throw InputError(file, at_line(line_no), "unknown header key '" + std::string(tok[0]) + "' (not a PCD file?)");
-    }
+    parse_header_line(tok[0], std::vector<std::string_view>(tok.begin() + 1, tok.end()), file, line_no, raw);
   }
-  if (!have_data) {
+  if (!raw.have_data) {
     throw InputError(file, at_line(line_no), "header ends without a DATA line (truncated or not a PCD file)");
   }
+  PcdHeader h;
+  h.data = raw.data;
   h.header_bytes = pos;
   h.header_lines = line_no;
-  if (names.empty()) throw InputError(file, at_line(line_no), "header has no FIELDS line");
-  if (counts.empty()) counts.assign(names.size(), 1);
-  if (sizes.size() != names.size() || types.size() != names.size() || counts.size() != names.size()) {
-    throw InputError(file, at_line(fields_line),
-                     fmt::format("FIELDS has {} entries but SIZE has {}, TYPE {}, COUNT {}", names.size(),
-                                 sizes.size(), types.size(), counts.size()));
-  }
-  std::size_t offset = 0;
-  for (std::size_t i = 0; i < names.size(); ++i) {
-    if (types[i] == 'F' && sizes[i] != 4 && sizes[i] != 8) {
-      throw InputError(file, at_line(fields_line), "field '" + names[i] + "' is a float of size " +
-                                                       std::to_string(sizes[i]) + " (must be 4 or 8)");
-    }
-    h.fields.push_back({names[i], sizes[i], types[i], counts[i], offset});
-    offset += static_cast<std::size_t>(sizes[i]) * static_cast<std::size_t>(counts[i]);
-  }
-  h.point_bytes = offset;
-  for (const char* axis : {"x", "y", "z"}) {
-    const PcdHeader::Field* f = h.find(axis);
-    if (f == nullptr) throw InputError(file, at_line(fields_line), std::string("no '") + axis + "' field");
-    if (f->count != 1) throw InputError(file, at_line(fields_line), std::string("field '") + axis + "' has COUNT > 1");
-  }
-  if (!have_points) {
-    if (!have_width) throw InputError(file, at_line(line_no), "header has neither POINTS nor WIDTH");
-    h.points = h.width * (have_height ? h.height : 1);
-    if (h.points > kMaxPoints) throw InputError(file, at_line(line_no), "WIDTH x HEIGHT is implausibly large");
-  } else if (have_width && have_height && h.width * h.height != h.points) {
-    throw InputError(file, at_line(points_line),
-                     fmt::format("POINTS {} disagrees with WIDTH {} x HEIGHT {}", h.points, h.width, h.height));
-  }
-  if (!have_width) h.width = h.points;
-  if (!have_height) h.height = 1;
+  build_fields(raw, file, line_no, h);
+  resolve_point_count(raw, file, line_no, h);
   return h;
 }
 
@@ -497,31 +511,26 @@ Sweep read_pcd(const std::filesystem::path& path, PcdInfo* info_out) {
   return sweep;
 }
 
-void write_pcd(const std::filesystem::path& path, const Sweep& sweep, PcdEncoding encoding,
-               PcdTimeField time_field) {
-  const std::size_t n = sweep.size();
-  const bool has_intensity = !sweep.intensity.empty();
-  const bool has_ring = !sweep.ring.empty();
-  if ((has_intensity && sweep.intensity.size() != n) || (has_ring && sweep.ring.size() != n) ||
-      (sweep.has_time() && sweep.dt_s.size() != n)) {
-    throw std::invalid_argument("write_pcd: per-point arrays of sweep '" + sweep.name + "' differ in length");
-  }
-  if (!sweep.has_time()) time_field = PcdTimeField::kNone;
-  if (time_field == PcdTimeField::kAbsolute && !std::isfinite(sweep.t_end_s)) {
-    throw std::invalid_argument("write_pcd: absolute timestamps need a finite t_end_s (sweep '" + sweep.name + "')");
-  }
+namespace {
 
-  struct OutField {
-    const char* name;
-    int size;
-    char type;
-  };
-  std::vector<OutField> fields = {{"x", 4, 'F'}, {"y", 4, 'F'}, {"z", 4, 'F'}};
-  if (has_intensity) fields.push_back({"intensity", 4, 'F'});
-  if (has_ring) fields.push_back({"ring", 2, 'U'});
-  if (time_field == PcdTimeField::kAbsolute) fields.push_back({"timestamp", 8, 'F'});
-  if (time_field == PcdTimeField::kRelative) fields.push_back({"time", 4, 'F'});
+enum class OutKind { kX, kY, kZ, kIntensity, kRing, kTimestamp, kTime };
+struct OutField {
+  const char* name;
+  int size;
+  char type;
+  OutKind kind;
+};
 
+std::vector<OutField> out_fields(const Sweep& sweep, PcdTimeField time_field) {
+  std::vector<OutField> fields = {{"x", 4, 'F', OutKind::kX}, {"y", 4, 'F', OutKind::kY}, {"z", 4, 'F', OutKind::kZ}};
+  if (!sweep.intensity.empty()) fields.push_back({"intensity", 4, 'F', OutKind::kIntensity});
+  if (!sweep.ring.empty()) fields.push_back({"ring", 2, 'U', OutKind::kRing});
+  if (time_field == PcdTimeField::kAbsolute) fields.push_back({"timestamp", 8, 'F', OutKind::kTimestamp});
+  if (time_field == PcdTimeField::kRelative) fields.push_back({"time", 4, 'F', OutKind::kTime});
+  return fields;
+}
+
+std::string header_text(const std::vector<OutField>& fields, std::size_t n, PcdEncoding encoding) {
   std::string out = "# .PCD v0.7 - Point Cloud Data file format\nVERSION 0.7\nFIELDS";
   for (const auto& f : fields) fmt::format_to(std::back_inserter(out), " {}", f.name);
   out += "\nSIZE";
@@ -534,69 +543,90 @@ void write_pcd(const std::filesystem::path& path, const Sweep& sweep, PcdEncodin
                           : encoding == PcdEncoding::kBinary ? "binary"
                                                              : "binary_compressed";
   out += fmt::format("\nWIDTH {}\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS {}\nDATA {}\n", n, n, data_name);
+  return out;
+}
 
-  // Writes field k of point i at dst.
-  auto put = [&](std::size_t k, std::size_t i, char* dst) {
-    const std::string_view name = fields[k].name;
-    if (k < 3) {
-      const float v = sweep.p_lidar[i][static_cast<Eigen::Index>(k)];
+// Field f of point i, as its bytes, at dst.
+void put_field(const Sweep& sweep, const OutField& f, std::size_t i, char* dst) {
+  switch (f.kind) {
+    case OutKind::kX: case OutKind::kY: case OutKind::kZ: {
+      const float v = sweep.p_lidar[i][static_cast<Eigen::Index>(f.kind)];
       std::memcpy(dst, &v, 4);
-    } else if (name == "intensity") {
-      std::memcpy(dst, &sweep.intensity[i], 4);
-    } else if (name == "ring") {
-      std::memcpy(dst, &sweep.ring[i], 2);
-    } else if (name == "timestamp") {
+      break;
+    }
+    case OutKind::kIntensity: std::memcpy(dst, &sweep.intensity[i], 4); break;
+    case OutKind::kRing: std::memcpy(dst, &sweep.ring[i], 2); break;
+    case OutKind::kTimestamp: {
       const double v = sweep.t_end_s + static_cast<double>(sweep.dt_s[i]);
       std::memcpy(dst, &v, 8);
-    } else {
-      std::memcpy(dst, &sweep.dt_s[i], 4);
+      break;
     }
-  };
-
-  if (encoding == PcdEncoding::kAscii) {
-    auto it = std::back_inserter(out);
-    for (std::size_t i = 0; i < n; ++i) {
-      const Vec3f& p = sweep.p_lidar[i];
-      fmt::format_to(it, "{} {} {}", p.x(), p.y(), p.z());
-      if (has_intensity) fmt::format_to(it, " {}", sweep.intensity[i]);
-      if (has_ring) fmt::format_to(it, " {}", sweep.ring[i]);
-      if (time_field == PcdTimeField::kAbsolute) fmt::format_to(it, " {}", sweep.t_end_s + double(sweep.dt_s[i]));
-      if (time_field == PcdTimeField::kRelative) fmt::format_to(it, " {}", sweep.dt_s[i]);
-      out += '\n';
-    }
-  } else {
-    std::size_t point_bytes = 0;
-    for (const auto& f : fields) point_bytes += static_cast<std::size_t>(f.size);
-    std::string raw(n * point_bytes, '\0');
-    if (encoding == PcdEncoding::kBinary) {
-      for (std::size_t i = 0; i < n; ++i) {
-        std::size_t off = i * point_bytes;
-        for (std::size_t k = 0; k < fields.size(); ++k) {
-          put(k, i, raw.data() + off);
-          off += static_cast<std::size_t>(fields[k].size);
-        }
-      }
-      out += raw;
-    } else {
-      std::size_t block = 0;
-      for (std::size_t k = 0; k < fields.size(); ++k) {
-        const std::size_t size = static_cast<std::size_t>(fields[k].size);
-        for (std::size_t i = 0; i < n; ++i) put(k, i, raw.data() + block + i * size);
-        block += n * size;
-      }
-      // LZF can expand incompressible input slightly; leave room for that.
-      std::string packed(raw.size() + raw.size() / 16 + 64, '\0');
-      unsigned int packed_size = 0;
-      if (!raw.empty()) {
-        packed_size = lzf_compress(raw.data(), static_cast<unsigned int>(raw.size()), packed.data(),
-                                   static_cast<unsigned int>(packed.size()));
-        if (packed_size == 0) throw std::runtime_error("write_pcd: LZF compression failed for " + path.string());
-      }
-      const std::uint32_t sizes[2] = {packed_size, static_cast<std::uint32_t>(raw.size())};
-      out.append(reinterpret_cast<const char*>(sizes), 8);
-      out.append(packed.data(), packed_size);
-    }
+    case OutKind::kTime: std::memcpy(dst, &sweep.dt_s[i], 4); break;
   }
+}
+
+void append_ascii(const Sweep& sweep, PcdTimeField time_field, std::string& out) {
+  auto it = std::back_inserter(out);
+  for (std::size_t i = 0; i < sweep.size(); ++i) {
+    const Vec3f& p = sweep.p_lidar[i];
+    fmt::format_to(it, "{} {} {}", p.x(), p.y(), p.z());
+    if (!sweep.intensity.empty()) fmt::format_to(it, " {}", sweep.intensity[i]);
+    if (!sweep.ring.empty()) fmt::format_to(it, " {}", sweep.ring[i]);
+    if (time_field == PcdTimeField::kAbsolute) fmt::format_to(it, " {}", sweep.t_end_s + double(sweep.dt_s[i]));
+    if (time_field == PcdTimeField::kRelative) fmt::format_to(it, " {}", sweep.dt_s[i]);
+    out += '\n';
+  }
+}
+
+// Binary: point after point. Compressed: field after field (one block per field), LZF-packed
+// behind its packed and unpacked sizes.
+void append_binary(const Sweep& sweep, const std::vector<OutField>& fields, bool compressed,
+                   const std::filesystem::path& path, std::string& out) {
+  const std::size_t n = sweep.size();
+  std::size_t point_bytes = 0;
+  for (const auto& f : fields) point_bytes += static_cast<std::size_t>(f.size);
+  std::string raw(n * point_bytes, '\0');
+  std::size_t field_off = 0;
+  for (const OutField& f : fields) {
+    const std::size_t size = static_cast<std::size_t>(f.size);
+    for (std::size_t i = 0; i < n; ++i)
+      put_field(sweep, f, i, raw.data() + (compressed ? n * field_off + i * size : i * point_bytes + field_off));
+    field_off += size;
+  }
+  if (!compressed) {
+    out += raw;
+    return;
+  }
+  // LZF can expand incompressible input slightly; leave room for that.
+  std::string packed(raw.size() + raw.size() / 16 + 64, '\0');
+  unsigned int packed_size = 0;
+  if (!raw.empty()) {
+    packed_size = lzf_compress(raw.data(), static_cast<unsigned int>(raw.size()), packed.data(),
+                               static_cast<unsigned int>(packed.size()));
+    if (packed_size == 0) throw std::runtime_error("write_pcd: LZF compression failed for " + path.string());
+  }
+  const std::uint32_t sizes[2] = {packed_size, static_cast<std::uint32_t>(raw.size())};
+  out.append(reinterpret_cast<const char*>(sizes), 8);
+  out.append(packed.data(), packed_size);
+}
+
+}  // namespace
+
+void write_pcd(const std::filesystem::path& path, const Sweep& sweep, PcdEncoding encoding,
+               PcdTimeField time_field) {
+  const std::size_t n = sweep.size();
+  if ((!sweep.intensity.empty() && sweep.intensity.size() != n) || (!sweep.ring.empty() && sweep.ring.size() != n) ||
+      (sweep.has_time() && sweep.dt_s.size() != n)) {
+    throw std::invalid_argument("write_pcd: per-point arrays of sweep '" + sweep.name + "' differ in length");
+  }
+  if (!sweep.has_time()) time_field = PcdTimeField::kNone;
+  if (time_field == PcdTimeField::kAbsolute && !std::isfinite(sweep.t_end_s)) {
+    throw std::invalid_argument("write_pcd: absolute timestamps need a finite t_end_s (sweep '" + sweep.name + "')");
+  }
+  const std::vector<OutField> fields = out_fields(sweep, time_field);
+  std::string out = header_text(fields, n, encoding);
+  if (encoding == PcdEncoding::kAscii) append_ascii(sweep, time_field, out);
+  else append_binary(sweep, fields, encoding == PcdEncoding::kBinaryCompressed, path, out);
   write_file_atomic(path, out);
 }
 
