@@ -6,6 +6,7 @@
 // loader would decode them; warm: the same stores again, sweeps cached: the calibration alone).
 //
 //   build/bench/rig_accuracy --seeds 10 [--scene default|recorded|both] [--azimuth-step-deg 0.2]
+//     [--relative-tz 0|1] [--shared-stage3 0|1] [--no-alone] [--no-timing]
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <sys/resource.h>
@@ -51,6 +52,8 @@ struct SeedRun {
   std::vector<Vec6> joint, alone;   // per LiDAR |error| (m, deg); alone empty row = undetermined
   std::vector<bool> alone_ok;
   double worst_sigma = 0.0;         // LiDAR-to-LiDAR error / stated stddev, worst DOF and pair
+  std::string worst_pair;           // which pair and DOF, its error and stddev
+  std::vector<double> own_z;        // per LiDAR |tz error| had it kept its own stage 3 (NaN: not replaced)
   double loop_m = 0.0, loop_deg = 0.0;
   double rig_cold_s = 0, rig_warm_s = 0, roof_cold_s = 0, roof_warm_s = 0;
   double rig_warm_cpu_s = 0, roof_warm_cpu_s = 0;
@@ -70,8 +73,13 @@ void check_pairs(const RigResult& rig, const sim::World& world, SeedRun& run) {
     Vec6 e;
     e.head<3>() = p.T_a_b.translation() - truth.translation();
     e.tail<3>() = so3_log(p.T_a_b.linear() * truth.linear().transpose());
-    for (int i = 0; i < 6; ++i)
-      if (std::isfinite(p.stddev[i]) && p.stddev[i] > 0) run.worst_sigma = std::max(run.worst_sigma, std::abs(e[i]) / p.stddev[i]);
+    for (int i = 0; i < 6; ++i) {
+      if (!std::isfinite(p.stddev[i]) || !(p.stddev[i] > 0) || std::abs(e[i]) / p.stddev[i] <= run.worst_sigma) continue;
+      run.worst_sigma = std::abs(e[i]) / p.stddev[i];
+      const double unit = i < 3 ? 1e3 : kDegPerRad;
+      run.worst_pair = fmt::format("{}__{} {}: error {:.4f}, stddev {:.4f} {}", rig.lidars[p.a].name, rig.lidars[p.b].name,
+                                   kDofNames[i], unit * e[i], unit * p.stddev[i], i < 3 ? "mm" : "deg");
+    }
   }
   const std::size_t n = rig.lidars.size();
   for (std::size_t a = 0; a < n; ++a)
@@ -84,8 +92,16 @@ void check_pairs(const RigResult& rig, const sim::World& world, SeedRun& run) {
       }
 }
 
-SeedRun run_seed(const std::string& scene, std::uint64_t seed, double azimuth_step_deg, double duration_s,
-                 const std::string& trajectory) {
+struct Options {
+  double azimuth_step_deg = 0.2, duration_s = 0.0;
+  std::string trajectory;
+  bool alone = true, timing = true;  // run the LiDARs alone; time warm runs and the roof alone
+  PipelineConfig config;
+};
+
+SeedRun run_seed(const std::string& scene, std::uint64_t seed, const Options& o) {
+  const double azimuth_step_deg = o.azimuth_step_deg, duration_s = o.duration_s;
+  const std::string& trajectory = o.trajectory;
   sim::SimConfig base;
   base.azimuth_step_deg = azimuth_step_deg;
   base.duration_s = duration_s;
@@ -98,7 +114,7 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, double azimuth_st
     data.push_back(sim::world_dataset(world, l));
     names.push_back(world->lidars[l].name);
   }
-  const PipelineConfig config;
+  const PipelineConfig& config = o.config;
   SeedRun run;
   std::vector<FrameStore> stores = stores_of(data, config);
   double t = now_s();
@@ -106,11 +122,12 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, double azimuth_st
   run.rig_cold_s = now_s() - t;
   t = now_s();
   double c = cpu_s();
-  run_rig_calibration(stores, names, config);
+  if (o.timing) run_rig_calibration(stores, names, config);
   run.rig_warm_s = now_s() - t;
   run.rig_warm_cpu_s = cpu_s() - c;
   for (std::size_t l = 0; l < names.size(); ++l) {
     run.joint.push_back(error_vec(rig.lidars[l].result.T_ins_lidar, world->lidars[l].T_ins_lidar_true));
+    run.own_z.push_back(std::abs(rig.lidars[l].own_stage3_tz_m - world->lidars[l].T_ins_lidar_true.translation().z()));
     if (rig.lidars[l].joint_with.empty()) run.notes.push_back(names[l] + ": " + rig.lidars[l].joint_note);
   }
   check_pairs(rig, *world, run);
@@ -119,6 +136,11 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, double azimuth_st
   PipelineConfig alone_config = config;
   alone_config.refine.joint.enabled = false;
   for (std::size_t l = 0; l < names.size(); ++l) {
+    if (!o.alone) {
+      run.alone.push_back(Vec6::Constant(std::nan("")));
+      run.alone_ok.push_back(false);
+      continue;
+    }
     try {
       const std::vector<FrameStore> one = {stores[l]};
       const RigResult alone = run_rig_calibration(one, {names[l]}, alone_config);
@@ -131,6 +153,7 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, double azimuth_st
     }
   }
   // The roof LiDAR alone through run_calibration, on a store of its own (cold, then warm).
+  if (!o.timing) return run;
   const FrameStore roof = make_frame_store(data[0], config);
   t = now_s();
   run_calibration(roof, config);
@@ -175,6 +198,7 @@ void report(const std::string& scene, const std::vector<std::string>& names, con
     rc += r.rig_cold_s, rw += r.rig_warm_s, oc += r.roof_cold_s, ow += r.roof_warm_s;
     rcpu += r.rig_warm_cpu_s, ocpu += r.roof_warm_cpu_s;
     for (const std::string& n : r.notes) fmt::print("note: {}\n", n);
+    fmt::print("worst pair: {:.2f} sigma, {}\n", r.worst_sigma, r.worst_pair);
   }
   const double n = static_cast<double>(runs.size());
   fmt::print("\nevery LiDAR within 0.03 deg per axis and 1 cm in x, y (joint): {} of {}\n", within, total);
@@ -194,15 +218,24 @@ void report(const std::string& scene, const std::vector<std::string>& names, con
 int main(int argc, char** argv) {
   using namespace insalign;
   CLI::App app{"rig accuracy and speed"};
-  int seeds = 10;
-  std::string scene = "both", trajectory = "../shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt";
-  double azimuth_step_deg = 0.2, duration_s = 0.0;
+  int seeds = 10, first_seed = 1;
+  std::string scene = "both";
+  Options o;
+  o.trajectory = "../shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt";
+  bool no_alone = false, no_timing = false;
   app.add_option("--seeds", seeds, "seeds per scene");
+  app.add_option("--first-seed", first_seed, "first seed");
   app.add_option("--scene", scene, "default, recorded or both");
-  app.add_option("--trajectory", trajectory, "pose file of the recorded trajectory");
-  app.add_option("--azimuth-step-deg", azimuth_step_deg, "simulator horizontal resolution");
-  app.add_option("--duration-s", duration_s, "drive length (0: the trajectory's, ~1000 frames)");
+  app.add_option("--trajectory", o.trajectory, "pose file of the recorded trajectory");
+  app.add_option("--azimuth-step-deg", o.azimuth_step_deg, "simulator horizontal resolution");
+  app.add_option("--duration-s", o.duration_s, "drive length (0: the trajectory's, ~1000 frames)");
+  app.add_option("--relative-tz", o.config.refine.joint.relative_tz, "joint stage 2 moves the members' tz but the anchor's (refine.joint.relative_tz)");
+  app.add_option("--shared-stage3", o.config.refine.joint.shared_stage3, "the anchor's stage-3 change moves every member (refine.joint.shared_stage3)");
+  app.add_flag("--no-alone", no_alone, "skip the LiDARs alone (the alone rows print nan)");
+  app.add_flag("--no-timing", no_timing, "skip the warm rig run and the roof alone (no times)");
   CLI11_PARSE(app, argc, argv);
+  o.alone = !no_alone, o.timing = !no_timing;
+  const std::string& trajectory = o.trajectory;
   std::vector<std::string> scenes;
   if (scene == "both" || scene == "default") scenes.push_back("default");
   if (scene == "both" || scene == "recorded") {
@@ -210,17 +243,26 @@ int main(int argc, char** argv) {
     else fmt::print("recorded trajectory {} missing: skipped\n", trajectory);
   }
   const std::vector<std::string> names = {"top", "left", "right", "front"};
-  fmt::print("rig {} at azimuth step {} deg, duration {} s (0: full)\n", kRig, azimuth_step_deg, duration_s);
+  fmt::print("rig {} at azimuth step {} deg, duration {} s (0: full); relative_tz {}, shared_stage3 {}\n", kRig,
+             o.azimuth_step_deg, o.duration_s, o.config.refine.joint.relative_tz, o.config.refine.joint.shared_stage3);
   for (const std::string& s : scenes) {
     std::vector<SeedRun> runs;
-    for (int seed = 1; seed <= seeds; ++seed) {
+    for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
       try {
-        runs.push_back(run_seed(s, static_cast<std::uint64_t>(seed), azimuth_step_deg, duration_s, trajectory));
+        runs.push_back(run_seed(s, static_cast<std::uint64_t>(seed), o));
         const SeedRun& r = runs.back();
         fmt::print("{} seed {}: joint max rot err {:.4f} deg, max xy err {:.2f} mm; rig {:.1f} s vs roof {:.1f} s (warm)\n", s, seed,
                    [&] { double m = 0; for (const Vec6& e : r.joint) m = std::max(m, e.tail<3>().maxCoeff()); return m; }(),
                    [&] { double m = 0; for (const Vec6& e : r.joint) m = std::max(m, 1e3 * e.head<2>().maxCoeff()); return m; }(),
                    r.rig_warm_s, r.roof_warm_s);
+        for (std::size_t l = 0; l < names.size(); ++l)
+          fmt::print("  {:<6} joint x {:.2f} y {:.2f} z {:.2f} mm, r/p/y {:.4f} {:.4f} {:.4f} deg | alone x {:.2f} y {:.2f} z {:.2f} mm, "
+                     "r/p/y {:.4f} {:.4f} {:.4f} deg\n", names[l], 1e3 * r.joint[l][0], 1e3 * r.joint[l][1], 1e3 * r.joint[l][2],
+                     r.joint[l][3], r.joint[l][4], r.joint[l][5], 1e3 * r.alone[l][0], 1e3 * r.alone[l][1], 1e3 * r.alone[l][2],
+                     r.alone[l][3], r.alone[l][4], r.alone[l][5]);
+        fmt::print("  own stage-3 |tz error| (shared stage 3 replaced it; nan: not replaced): {:.2f} {:.2f} {:.2f} {:.2f} mm\n",
+                   1e3 * r.own_z[0], 1e3 * r.own_z[1], 1e3 * r.own_z[2], 1e3 * r.own_z[3]);
+        fmt::print("  worst pair {:.2f} sigma: {}\n", r.worst_sigma, r.worst_pair);
         std::fflush(stdout);
       } catch (const std::exception& e) {
         fmt::print("{} seed {}: FAILED: {}\n", s, seed, e.what());

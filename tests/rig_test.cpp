@@ -47,8 +47,9 @@ struct SmallRig {
   std::vector<FrameStore> stores;
 };
 
-// roof + left on one figure-8 drive (same INS poses), each with its own clock offset.
-SmallRig small_rig(PipelineConfig& config, int frames = 120) {
+// roof + left on one figure-8 drive (same INS poses), each with its own clock offset; tz_error_m:
+// the initial guesses' tz errors (else those of the random perturbation).
+SmallRig small_rig(PipelineConfig& config, int frames = 120, const std::vector<double>& tz_error_m = {}) {
   SmallRig rig;
   testing::WorldSpec spec;
   spec.frames = frames;
@@ -62,7 +63,9 @@ SmallRig small_rig(PipelineConfig& config, int frames = 120) {
   keep_wedge(rig.drives.back().data, 45.0, 20.0);
   rig.names = {"top", "left"};
   for (std::size_t l = 0; l < rig.drives.size(); ++l) {
-    rig.drives[l].data.T_ins_lidar_init = testing::perturbed(rig.drives[l].T_ins_lidar_true, 1.0, 0.05, 10 + l);
+    Iso3 init = testing::perturbed(rig.drives[l].T_ins_lidar_true, 1.0, 0.05, 10 + l);
+    if (l < tz_error_m.size()) init.translation().z() = rig.drives[l].T_ins_lidar_true.translation().z() + tz_error_m[l];
+    rig.drives[l].data.T_ins_lidar_init = init;
   }
   config.ins_height_m = 1.0;  // the test world's INS height: stage 3 fixes tz
   config.repeatability.segments = 0;
@@ -129,6 +132,39 @@ TEST(Rig, JointRefinementFixesASideLidarThatAloneIsOff) {
   const Iso3 T_top_left = joint.lidars[0].result.T_ins_lidar.inverse() * left.T_ins_lidar;
   EXPECT_TRUE(joint.pairs[0].T_a_b.isApprox(T_top_left, 1e-12));
   EXPECT_TRUE(joint.pairs[0].stddev.allFinite());
+}
+
+// Joint stage 2 with every tz held where it started: the side LiDAR's ground sits 3 cm off the
+// roof's in the shared map, and the sparse LiDAR tilts to meet it. With relative tz (the default)
+// only the anchor's (the roof's, the larger map) is held, the side LiDAR's height follows the
+// shared ground and its tilt stays right. No stage 3 here (no fiducials, no INS height): the
+// tz errors stay the initial guesses', 0 for the roof and 3 cm for the side LiDAR.
+TEST(Rig, JointRefinementMovesTheSideLidarsHeightInsteadOfTiltingIt) {
+  const auto run = [](bool relative_tz) {
+    PipelineConfig config;
+    SmallRig rig = small_rig(config, 120, {0.0, 0.03});
+    config.ins_height_m.reset();
+    config.refine.joint.relative_tz = relative_tz;
+    const RigResult result = run_rig_calibration(rig.stores, rig.names, config);
+    EXPECT_EQ(result.lidars[1].tz_anchor, relative_tz ? "top" : "");
+    const Iso3 T_top_left = result.lidars[0].result.T_ins_lidar.inverse() * result.lidars[1].result.T_ins_lidar;
+    const Iso3 truth = rig.drives[0].T_ins_lidar_true.inverse() * rig.drives[1].T_ins_lidar_true;
+    const ExtrinsicError left = extrinsic_error(result.lidars[1].result.T_ins_lidar, rig.drives[1].T_ins_lidar_true);
+    const ExtrinsicError pair = extrinsic_error(T_top_left, truth);
+    std::printf("relative tz %d: left tilt %.4f %.4f deg, yaw %.4f deg, dx %.2f dy %.2f dz %.2f mm; pair %.4f deg %.2f mm\n",
+                relative_tz, left.drpy_deg.x(), left.drpy_deg.y(), left.drpy_deg.z(), 1e3 * left.dt_m.x(), 1e3 * left.dt_m.y(),
+                1e3 * left.dt_m.z(), pair.angle_deg, 1e3 * pair.dt_norm_m);
+    return std::pair{left, pair};
+  };
+  const auto [left, pair] = run(true);
+  EXPECT_LT(left.drpy_deg.head<2>().maxCoeff(), 0.03);
+  EXPECT_LT(left.dt_m.z(), 0.005);  // from 30 mm: the height relative to the roof's ground
+  EXPECT_LT(left.dt_m.head<2>().maxCoeff(), 0.01);
+  EXPECT_LT(pair.dt_norm_m, 0.01);
+  // Not checked: the wedge LiDAR's yaw, 0.17-0.20 deg off with and without relative tz on this
+  // drive without stage 3 (0.003 deg with the height prior, the first test): not understood yet.
+  const auto [held, held_pair] = run(false);
+  EXPECT_GT(held.drpy_deg.head<2>().maxCoeff(), 2.0 * left.drpy_deg.head<2>().maxCoeff());
 }
 
 TEST(Rig, ALidarThatOverlapsNoOtherIsCalibratedAloneAndSaysSo) {

@@ -57,6 +57,7 @@ struct Problem {
   std::vector<std::uint16_t> lidar_of;   // per frame: its LiDAR
   std::vector<std::size_t> first;  // frames[f] occupies points [first[f], first[f+1]) of a map
   std::vector<std::uint16_t> frame_of;
+  std::vector<bool> tz_free;       // per LiDAR: its tz estimated (a rig's relative heights)
   std::size_t lidars() const { return poses.size(); }
   std::size_t points() const { return first.back(); }
 };
@@ -318,19 +319,20 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
   return total;
 }
 
-std::vector<int> active_dofs(const RefineConfig& c, bool time_offset) {
+std::vector<int> active_dofs(const RefineConfig& c, bool time_offset, bool tz) {
   std::vector<int> dofs = {0, 1};
-  if (c.estimate_tz) dofs.push_back(2);
+  if (c.estimate_tz || tz) dofs.push_back(2);
   dofs.insert(dofs.end(), {3, 4, 5});
   if (time_offset) dofs.push_back(kTimeIndex);
   return dofs;
 }
 
 // Indices into the 7N joint parameters.
-std::vector<int> active_params(const RefineConfig& c, const std::vector<bool>& offset_free) {
+std::vector<int> active_params(const RefineConfig& c, const std::vector<bool>& offset_free,
+                               const std::vector<bool>& tz_free) {
   std::vector<int> out;
   for (std::size_t l = 0; l < offset_free.size(); ++l)
-    for (int d : active_dofs(c, offset_free[l])) out.push_back(kRefineParams * static_cast<int>(l) + d);
+    for (int d : active_dofs(c, offset_free[l], tz_free[l])) out.push_back(kRefineParams * static_cast<int>(l) + d);
   return out;
 }
 
@@ -363,7 +365,7 @@ States grid_search(const Problem& p, const States& start, const std::vector<bool
   for (int round = 0; round < config.grid_rounds; ++round) {
     for (int pass = 0; pass < config.grid_sweeps_per_round; ++pass) {
       for (std::size_t l = 0; l < p.lidars(); ++l) {
-        const std::vector<int> dofs = active_dofs(config, offset_free[l]);
+        const std::vector<int> dofs = active_dofs(config, offset_free[l], p.tz_free[l]);
         // Time offset first: it moves points the most; then rotations, then translations.
         std::vector<int> order;
         if (offset_free[l]) order.push_back(kTimeIndex);
@@ -477,7 +479,7 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
     if (offset_free[l] && config.time_offset_scan_step_s > 0.0)
       s[l].time_offset_s = scan_time_offset(p, l, start[l], config, out, scratch);
   }
-  const std::vector<int> params = active_params(config, offset_free);
+  const std::vector<int> params = active_params(config, offset_free, p.tz_free);
   const int n_dof = static_cast<int>(params.size());
   const int n_all = kRefineParams * static_cast<int>(p.lidars());
   Eigen::MatrixXd H_active;
@@ -538,11 +540,11 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
 }
 
 // Per-LiDAR stddev and verdicts from the joint covariance (estimated parameters only).
-void set_stddevs(const Search& search, const std::vector<bool>& offset_free, const RefineConfig& config,
-                 std::vector<RefineResult>& results) {
+void set_stddevs(const Search& search, const std::vector<bool>& offset_free, const std::vector<bool>& tz_free,
+                 const RefineConfig& config, std::vector<RefineResult>& results) {
   if (search.covariance.size() == 0) return;
   for (std::size_t l = 0; l < results.size(); ++l) {
-    for (int d : active_dofs(config, offset_free[l])) {
+    for (int d : active_dofs(config, offset_free[l], tz_free[l])) {
       const int i = kRefineParams * static_cast<int>(l) + d;
       const double sd = std::sqrt(std::max(0.0, search.covariance(i, i)));
       if (d == kTimeIndex) {
@@ -582,7 +584,9 @@ Problem joint_problem(const std::vector<RefineLidar>& lidars, const RefineConfig
     points_per_lidar.push_back(points);
     poses.push_back(&in.store->poses());
   }
-  return make_problem(std::move(poses), std::move(all), std::move(lidar_of));
+  Problem p = make_problem(std::move(poses), std::move(all), std::move(lidar_of));
+  for (const RefineLidar& in : lidars) p.tz_free.push_back(in.estimate_tz);
+  return p;
 }
 
 std::vector<bool> offsets_free(const std::vector<RefineLidar>& lidars, const RefineConfig& config) {
@@ -694,7 +698,7 @@ JointRefineResult refine_joint(const std::vector<RefineLidar>& lidars, const Ref
                                   ? grid_search(p, start, offset_free, config, search, progress)
                                   : gauss_newton(p, start, offset_free, config, search, progress);
   distribute(search, final_states, result);
-  if (!search.undetermined) set_stddevs(search, offset_free, config, result.lidars);
+  if (!search.undetermined) set_stddevs(search, offset_free, p.tz_free, config, result.lidars);
   const std::vector<std::size_t> before = occupied_per_lidar(p, start, config.occupancy_voxel_m);
   const std::vector<std::size_t> after = occupied_per_lidar(p, final_states, config.occupancy_voxel_m);
   for (std::size_t l = 0; l < lidars.size(); ++l) {

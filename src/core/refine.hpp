@@ -40,6 +40,13 @@ struct JointConfig {
   double overlap_voxel_m = 0.5;     ///< voxel edge of the overlap count, metres
   double min_overlap = 0.05;        ///< shared fraction that ties two LiDARs; below, they do not overlap
   std::size_t overlap_frames = 40;  ///< frames per LiDAR stitched to measure the overlap
+  /// Stage 2 keeps one anchor's tz (the LiDAR with the largest stage-1 map) and moves the other
+  /// members' tz: their heights relative to it are seen on the shared ground, and a side LiDAR
+  /// held at its own fiducial tz (a few mm off the roof's ground) tilts to meet it instead.
+  bool relative_tz = true;
+  /// Stage 3 afterwards: the anchor's correction moves every member alike (keeping the heights
+  /// stage 2 found between them); false: each LiDAR's own stage 3.
+  bool shared_stage3 = true;
 };
 
 template <class V>
@@ -48,6 +55,8 @@ void visit_config(V& v, JointConfig& c) {
   v("overlap_voxel_m", c.overlap_voxel_m, "rig: voxel edge of the overlap count, m");
   v("min_overlap", c.min_overlap, "rig: shared occupied voxels / the smaller map's that tie two LiDARs");
   v("overlap_frames", c.overlap_frames, "rig: frames per LiDAR stitched to measure the overlap");
+  v("relative_tz", c.relative_tz, "rig: stage 2 moves every member's tz but the anchor's (heights from the shared ground)");
+  v("shared_stage3", c.shared_stage3, "rig: the anchor's stage-3 tz correction moves every member alike (false: each its own)");
 }
 
 struct RefineConfig {
@@ -210,6 +219,9 @@ struct RefineLidar {
   Iso3 T_ins_lidar_start = Iso3::Identity();
   double time_offset_start_s = 0.0;
   bool estimate_time_offset = true;     ///< and config.estimate_time_offset
+  /// Also move its tz (besides config.estimate_tz): a rig's LiDAR whose height is tied to another
+  /// one's through the shared ground of the joint map (rig.cpp keeps one anchor's tz fixed).
+  bool estimate_tz = false;
 };
 
 /// Parameters of LiDAR l in the joint state: [7 l, 7 l + 7) = tx ty tz roll pitch yaw (the

@@ -16,6 +16,11 @@ namespace {
 
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 constexpr double kUnknownSigma = 1e3;  // stands in for +inf in the propagation (m, rad)
+// The stated stddev of a member's tz relative to its anchor is at least this (m). The formal one
+// (points taken as independent) said 0.2-0.4 mm where the error was 2-3.5 mm (a side VLP-16 in
+// bench/rig_accuracy, reduced runs); 12 members' relative errors over 4 drives had an RMS of
+// 1.5 mm, and the segments' spread does not see such a bias.
+constexpr double kRelativeTzMinSigma_m = 0.0015;
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -73,13 +78,14 @@ double keys_overlap(const std::vector<std::uint64_t>& a, const std::vector<std::
 }
 
 // Each LiDAR's map at its stage-1 extrinsic; overlap[a][b] as JointConfig measures it.
-std::vector<std::vector<double>> overlap_matrix(const std::vector<FrameStore>& stores, const RigResult& rig,
+std::vector<std::vector<double>> overlap_matrix(const std::vector<FrameStore>& stores, RigResult& rig,
                                                 const JointConfig& joint) {
   std::vector<std::vector<std::uint64_t>> keys;
   for (std::size_t l = 0; l < stores.size(); ++l) {
     const CalibrationResult& r = rig.lidars[l].result;
     const std::vector<std::size_t> frames = spread_frames(stores[l], joint.overlap_frames, 0.0);
     keys.push_back(voxel_keys(stitch_map(stores[l], frames, r.T_ins_lidar, 0.0, 0.0), joint.overlap_voxel_m));
+    rig.map_voxels.push_back(keys.back().size());
   }
   std::vector<std::vector<double>> overlap(stores.size(), std::vector<double>(stores.size(), 1.0));
   for (std::size_t a = 0; a < stores.size(); ++a)
@@ -113,18 +119,36 @@ std::vector<std::vector<std::size_t>> overlap_groups(const std::vector<std::vect
   return groups;
 }
 
+// The member whose tz anchors a joint group's heights: the one that sees the most (largest
+// stage-1 map), whose ground the others' is measured against.
+std::size_t tz_anchor(const std::vector<std::size_t>& members, const RigResult& rig) {
+  std::size_t best = members.front();
+  for (std::size_t l : members)
+    if (rig.map_voxels[l] > rig.map_voxels[best]) best = l;
+  return best;
+}
+
+bool relative_tz(const std::vector<std::size_t>& members, const PipelineConfig& config) {
+  return members.size() > 1 && config.refine.joint.relative_tz && !config.refine.estimate_tz;
+}
+
 // A joint group's inputs: stage 2 starts from stage 1 with tz fixed by an early stage 3, as
-// run_calibration does (a wrong tz biases the horizontal lever arm).
+// run_calibration does (a wrong tz biases the horizontal lever arm); with relative_tz only the
+// anchor's stays fixed: each LiDAR's fiducial tz is a few mm off, and on the shared ground that
+// offset would be absorbed as a tilt of the sparse LiDAR (3 mm over 5 m is 0.03 deg).
 std::vector<RefineLidar> group_inputs(const std::vector<FrameStore>& stores, const std::vector<std::size_t>& members,
                                       const PipelineConfig& config, RigResult& rig) {
   std::vector<RefineLidar> in;
   const double margin = config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0;
+  const bool relative = relative_tz(members, config);
+  const std::size_t anchor = tz_anchor(members, rig);
   for (std::size_t l : members) {
     CalibrationResult& r = rig.lidars[l].result;
     const ZResult early_z = correct_z(stores[l], r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
     if (early_z.determined()) r.T_ins_lidar = early_z.T_ins_lidar;
     in.push_back({rig.lidars[l].name, &stores[l], refine_frames(stores[l], config.refine, 0.0, margin), r.T_ins_lidar,
-                  r.time_offset_s, true});
+                  r.time_offset_s, true, relative && l != anchor});
+    if (relative) rig.lidars[l].tz_anchor = rig.lidars[anchor].name;
   }
   return in;
 }
@@ -145,6 +169,10 @@ void take_joint(const JointRefineResult& joint, const std::vector<std::size_t>& 
     r.time_offset_s = r.refine->time_offset_s;
     r.time_offset_stddev_s = r.refine->time_offset_stddev_s;
     lidar.formal_stddev = r.refine->outcome.stddev;
+    if (!lidar.tz_anchor.empty())
+      lidar.tz_relative_stddev_m = lidar.tz_anchor == lidar.name
+                                       ? 0.0
+                                       : std::max(r.refine->outcome.stddev[2], kRelativeTzMinSigma_m);
     for (int i : {0, 1, 3, 4, 5}) {
       const double sd = r.refine->outcome.stddev[i];
       const bool joint_ok = members.size() > 1 && passes(i, sd, config.rough.observability);
@@ -237,10 +265,17 @@ std::vector<std::size_t> frames_in(const RefineLidar& in, double t0_s, double t1
   return out;
 }
 
+// The expected range of n normal samples in sigmas (d_n of the range method).
+double range_factor(std::size_t n) {
+  constexpr double kRangeFactor[] = {1.0, 1.0, 1.128, 1.693, 2.059, 2.326};
+  return kRangeFactor[std::min<std::size_t>(n, 5)];
+}
+
 // The segments' spread per LiDAR, and what it says of the whole drive (as repeatability.cpp:
 // range / (d_n sqrt(n)) for n segments), widening the formal stddevs as run_calibration does.
 void spread_into(const std::vector<JointRefineResult>& segments, std::size_t k, const std::vector<double>& bounds,
-                 std::size_t frames_per_segment, const RepeatabilityConfig& config, CalibrationResult& r) {
+                 std::size_t frames_per_segment, const RepeatabilityConfig& config, RigLidar& lidar) {
+  CalibrationResult& r = lidar.result;
   RepeatabilityResult& rep = r.repeatability;
   Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
   for (std::size_t s = 0; s < segments.size(); ++s) {
@@ -262,12 +297,18 @@ void spread_into(const std::vector<JointRefineResult>& segments, std::size_t k, 
     return;
   }
   rep.spread = hi - lo;
-  rep.spread[2] = 0.0;
-  constexpr double kRangeFactor[] = {1.0, 1.0, 1.128, 1.693, 2.059, 2.326};
-  const double d_n = kRangeFactor[std::min(rep.segments_ok, 5)];
+  // tz moves in the segments only relative to the anchor (stage 2's relative heights): its spread
+  // widens that relative part; the anchor's own tz stays stage 3's.
+  const bool tz_relative = std::isfinite(lidar.tz_relative_stddev_m) && lidar.tz_relative_stddev_m > 0.0;
+  if (!tz_relative) rep.spread[2] = 0.0;
+  const double d_n = range_factor(rep.segments_ok);
   for (int i : {0, 1, 3, 4, 5}) {
     rep.stddev_whole_drive[i] = rep.spread[i] / (d_n * std::sqrt(double(rep.segments_ok)));
     if (r.determined[i] && !(r.stddev[i] >= rep.stddev_whole_drive[i])) r.stddev[i] = rep.stddev_whole_drive[i];
+  }
+  if (tz_relative) {
+    rep.stddev_whole_drive[2] = rep.spread[2] / (d_n * std::sqrt(double(rep.segments_ok)));
+    lidar.tz_relative_stddev_m = std::max(lidar.tz_relative_stddev_m, rep.stddev_whole_drive[2]);
   }
   if (rep.spread.head<2>().maxCoeff() > config.warn_trans_m || rep.spread.tail<3>().maxCoeff() > config.warn_rot_deg * kRadPerDeg) {
     rep.warning = fmt::format("repeatability: the joint segments disagree by up to {:.1f} cm, {:.3f} deg",
@@ -307,8 +348,56 @@ void joint_repeatability(const std::vector<RefineLidar>& in, const std::vector<s
   }
   for (std::size_t k = 0; k < members.size(); ++k) {
     CalibrationResult& r = rig.lidars[members[k]].result;
-    spread_into(segments, k, bounds, frames, config.repeatability, r);
+    spread_into(segments, k, bounds, frames, config.repeatability, rig.lidars[members[k]]);
     r.repeatability.wall_time_s = seconds_since(t0);
+  }
+}
+
+// Relative tz, shared stage 3: stage 2 fixed the members' heights relative to the anchor on the
+// shared ground, to about a millimetre; each one's own fiducial tz is worse (a sparse LiDAR meets
+// the ground at the fiducials in a few rings only) and would break that relation again, so the
+// anchor's stage-3 change moves every member alike. Their own stage 3 stays as a check: a member
+// whose own dz disagrees beyond 3 sigma gets a warning.
+std::size_t anchor_of(const std::vector<std::size_t>& members, const RigResult& rig) {
+  std::size_t anchor = members.front();
+  for (std::size_t l : members)
+    if (rig.lidars[l].tz_anchor == rig.lidars[l].name) anchor = l;
+  return anchor;
+}
+
+// Their tz stddev: the anchor's (absolute) and their own relative part (after the repeatability
+// study widened it).
+void shared_tz_stddevs(const std::vector<std::size_t>& members, RigResult& rig) {
+  const double sd_anchor_m = rig.lidars[anchor_of(members, rig)].result.stddev[2];
+  for (std::size_t l : members)
+    if (rig.lidars[l].tz_from_anchor) rig.lidars[l].result.stddev[2] = std::hypot(sd_anchor_m, rig.lidars[l].tz_relative_stddev_m);
+}
+
+void share_anchor_stage3(const std::vector<std::size_t>& members, const std::vector<double>& tz_before_m,
+                         RigResult& rig) {
+  const std::size_t anchor = anchor_of(members, rig);
+  const CalibrationResult& a = rig.lidars[anchor].result;
+  if (!a.z.determined()) return;  // nothing to share: each keeps what its own stage 3 said
+  const double dz_m = a.z.dz_m, sd_anchor_m = a.stddev[2];
+  for (std::size_t k = 0; k < members.size(); ++k) {
+    RigLidar& lidar = rig.lidars[members[k]];
+    CalibrationResult& r = lidar.result;
+    if (members[k] == anchor || !std::isfinite(lidar.tz_relative_stddev_m)) continue;
+    const double own_dz_m = r.z.determined() ? r.z.dz_m : std::nan("");
+    if (r.z.determined()) lidar.own_stage3_tz_m = r.T_ins_lidar.translation().z();
+    lidar.tz_from_anchor = true;
+    r.T_ins_lidar.translation().z() = tz_before_m[k] + dz_m;
+    r.stddev[2] = std::hypot(sd_anchor_m, lidar.tz_relative_stddev_m);
+    r.determined[2] = true;
+    const double own_sd_m = r.z.determined() ? r.z.tz_stddev_m() : 0.0;
+    if (std::isfinite(own_dz_m) && std::abs(own_dz_m - dz_m) > 3.0 * std::hypot(own_sd_m, r.stddev[2]))
+      r.warnings.push_back(fmt::format("{}its own stage 3 moves tz by {:+.1f} mm, the anchor '{}' by {:+.1f} mm: "
+                                       "the relative height from the joint map was kept",
+                                       prefix(lidar.name), 1e3 * own_dz_m, rig.lidars[anchor].name, 1e3 * dz_m));
+    r.z.T_ins_lidar = r.T_ins_lidar;
+    r.z.dz_m = dz_m;
+    r.z.outcome.message += fmt::format(" (rig: tz = the joint height relative to '{}' plus its stage-3 change; "
+                                       "own stage 3 said {:+.1f} mm)", rig.lidars[anchor].name, 1e3 * own_dz_m);
   }
 }
 
@@ -321,52 +410,130 @@ void finish_all(const std::vector<FrameStore>& stores, const std::vector<std::ve
   no_segments.repeatability.segments = 0;
   for (std::size_t g = 0; g < groups.size(); ++g) {
     const bool joint = groups[g].size() > 1;
+    std::vector<double> tz_before_m;
     for (std::size_t k = 0; k < groups[g].size(); ++k) {
       const std::size_t l = groups[g][k];
+      tz_before_m.push_back(rig.lidars[l].result.T_ins_lidar.translation().z());
       const std::vector<std::size_t> frames = inputs.empty() ? std::vector<std::size_t>{} : inputs[g][k].frames;
       run_finish(stores[l], rough_groups[l], frames, joint ? no_segments : config,
                  lidar_progress(progress, rig.lidars[l].name), rig.lidars[l].result);
     }
+    if (joint && config.refine.joint.shared_stage3 && !rig.lidars[groups[g].front()].tz_anchor.empty())
+      share_anchor_stage3(groups[g], tz_before_m, rig);
     if (joint && !inputs.empty() && config.repeatability.segments > 1) {
       if (progress) progress("joint repeatability", 0.0);
       joint_repeatability(inputs[g], groups[g], config, rig);
       if (progress) progress("joint repeatability", 1.0);
     }
+    if (joint) shared_tz_stddevs(groups[g], rig);
   }
   for (std::size_t l = 0; l < stores.size(); ++l) rig.lidars[l].result.frames_decoded = stores[l].frames_decoded();
 }
 
-// Every pair's transform, its covariance from the final stddevs with the joint correlations.
-std::vector<LidarPair> lidar_pairs(const std::vector<std::vector<std::size_t>>& groups,
-                                   const std::vector<JointRefineResult>& joints, const RigResult& rig) {
+// Each LiDAR's 6 stddevs as the joint covariance's correlations scale them: the final ones, but
+// for a tz that follows its anchor only its part relative to the anchor (the anchor's own
+// stage-3 error is common to the group: common_tz_var).
+struct PairInputs {
+  std::vector<std::size_t> slot;         // a LiDAR's place in its group's joint covariance
+  std::vector<Vec6> sigma;               // per LiDAR
+  std::vector<double> common_tz_var;     // per group: the anchor's tz variance shared by its followers
+};
+
+PairInputs pair_inputs(const std::vector<std::vector<std::size_t>>& groups, const RigResult& rig) {
+  PairInputs in;
   const std::size_t n = rig.lidars.size();
-  std::vector<std::size_t> slot(n, 0);
-  for (const auto& members : groups)
-    for (std::size_t k = 0; k < members.size(); ++k) slot[members[k]] = k;
-  const auto sigma = [&](std::size_t l, int i) {
-    const double s = rig.lidars[l].result.stddev[i];
-    return std::isfinite(s) ? s : kUnknownSigma;
-  };
+  in.slot.assign(n, 0);
+  in.sigma.assign(n, Vec6::Constant(kUnknownSigma));
+  in.common_tz_var.assign(groups.size(), 0.0);
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    for (std::size_t k = 0; k < groups[g].size(); ++k) in.slot[groups[g][k]] = k;
+    bool shared = false;
+    for (std::size_t l : groups[g]) shared = shared || rig.lidars[l].tz_from_anchor;
+    const double sd_anchor = rig.lidars[anchor_of(groups[g], rig)].result.stddev[2];
+    if (shared && std::isfinite(sd_anchor)) in.common_tz_var[g] = sd_anchor * sd_anchor;
+    for (std::size_t l : groups[g]) {
+      const RigLidar& lidar = rig.lidars[l];
+      for (int i = 0; i < 6; ++i)
+        if (std::isfinite(lidar.result.stddev[i])) in.sigma[l][i] = lidar.result.stddev[i];
+      if (shared && std::isfinite(sd_anchor) && (lidar.tz_from_anchor || l == anchor_of(groups[g], rig)))
+        in.sigma[l][2] = lidar.tz_from_anchor ? lidar.tz_relative_stddev_m : 0.0;
+    }
+  }
+  return in;
+}
+
+// The 12x12 covariance of [a, b]'s INS-frame perturbations: the joint correlations (zero across
+// groups) times the sigmas, plus the common tz part where both follow one anchor.
+Mat12 pair_covariance(std::size_t a, std::size_t b, const PairInputs& in, const std::vector<JointRefineResult>& joints,
+                      const RigResult& rig) {
   const auto corr = [&](std::size_t l, int i, std::size_t m, int j) {
     if (l == m && i == j) return 1.0;
     if (joints.empty() || rig.lidars[l].group != rig.lidars[m].group) return 0.0;
     const Eigen::MatrixXd& cov = joints[rig.lidars[l].group].covariance;
     if (cov.size() == 0) return 0.0;
-    const int a = kRefineParams * static_cast<int>(slot[l]) + i, b = kRefineParams * static_cast<int>(slot[m]) + j;
-    const double denom = std::sqrt(cov(a, a) * cov(b, b));
-    return denom > 0.0 ? cov(a, b) / denom : 0.0;
+    const int r = kRefineParams * static_cast<int>(in.slot[l]) + i, c = kRefineParams * static_cast<int>(in.slot[m]) + j;
+    const double denom = std::sqrt(cov(r, r) * cov(c, c));
+    return denom > 0.0 ? cov(r, c) / denom : 0.0;
   };
+  Mat12 C;
+  for (int r = 0; r < 12; ++r)
+    for (int c = 0; c < 12; ++c) {
+      const std::size_t lr = r < 6 ? a : b, lc = c < 6 ? a : b;
+      C(r, c) = corr(lr, r % 6, lc, c % 6) * in.sigma[lr][r % 6] * in.sigma[lc][c % 6];
+    }
+  if (rig.lidars[a].group == rig.lidars[b].group) {
+    const double common = in.common_tz_var.empty() ? 0.0 : in.common_tz_var[rig.lidars[a].group];
+    for (int r : {2, 8})
+      for (int c : {2, 8}) C(r, c) += common;
+  } else {
+    for (std::size_t l : {a, b}) C((l == a ? 2 : 8), (l == a ? 2 : 8)) += in.common_tz_var[rig.lidars[l].group];
+  }
+  return C;
+}
+
+// A joint group's pair per repeatability segment: its spread scaled to the whole drive (as
+// spread_into does per LiDAR) is a floor for the pair's stddev. The LiDARs' widened stddevs with
+// the formal correlations can still be too small for the pair: the segments' errors of two
+// LiDARs need not be correlated as the formal covariance says (measured: up to 4x too small).
+Vec6 pair_spread_stddev(const RigLidar& a, const RigLidar& b, const Iso3& T_a_b) {
+  const auto& sa = a.result.repeatability.segments;
+  const auto& sb = b.result.repeatability.segments;
+  Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
+  std::size_t ok = 0;
+  for (std::size_t s = 0; s < std::min(sa.size(), sb.size()); ++s) {
+    if (!sa[s].ok || !sb[s].ok) continue;
+    const Iso3 T = sa[s].T_ins_lidar.inverse() * sb[s].T_ins_lidar;
+    Vec6 v;
+    v.head<3>() = T.translation();
+    v.tail<3>() = so3_log(T.linear() * T_a_b.linear().transpose());
+    lo = lo.cwiseMin(v), hi = hi.cwiseMax(v), ++ok;
+  }
+  if (ok < 2) return Vec6::Zero();
+  return (hi - lo) / (range_factor(ok) * std::sqrt(double(ok)));
+}
+
+// Every pair's transform and its covariance (pair_covariance), each DOF widened to at least the
+// pair's own repeatability spread (correlations kept).
+std::vector<LidarPair> lidar_pairs(const std::vector<std::vector<std::size_t>>& groups,
+                                   const std::vector<JointRefineResult>& joints, const RigResult& rig) {
+  const std::size_t n = rig.lidars.size();
+  const PairInputs in = pair_inputs(groups, rig);
   std::vector<LidarPair> pairs;
   for (std::size_t a = 0; a < n; ++a) {
     for (std::size_t b = a + 1; b < n; ++b) {
-      Mat12 C;
-      for (int r = 0; r < 12; ++r)
-        for (int c = 0; c < 12; ++c) {
-          const std::size_t lr = r < 6 ? a : b, lc = c < 6 ? a : b;
-          C(r, c) = corr(lr, r % 6, lc, c % 6) * sigma(lr, r % 6) * sigma(lc, c % 6);
-        }
-      LidarPair p = lidar_pair(rig.lidars[a].result.T_ins_lidar, rig.lidars[b].result.T_ins_lidar, C);
+      const RigLidar &la = rig.lidars[a], &lb = rig.lidars[b];
+      LidarPair p = lidar_pair(la.result.T_ins_lidar, lb.result.T_ins_lidar, pair_covariance(a, b, in, joints, rig));
       p.a = a, p.b = b;
+      if (la.group == lb.group) {
+        const Vec6 floor = pair_spread_stddev(la, lb, p.T_a_b);
+        for (int i = 0; i < 6; ++i) {
+          if (!(floor[i] > p.stddev[i]) || p.stddev[i] <= 0.0) continue;
+          const double f = floor[i] / p.stddev[i];
+          p.covariance.row(i) *= f;
+          p.covariance.col(i) *= f;
+          p.stddev[i] = floor[i];
+        }
+      }
       for (int i = 0; i < 6; ++i)
         if (p.stddev[i] > 0.1 * kUnknownSigma) p.stddev[i] = std::numeric_limits<double>::infinity();
       pairs.push_back(p);

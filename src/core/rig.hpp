@@ -24,6 +24,15 @@ struct RigLidar {
   std::array<bool, 6> determined_alone{};
   /// Stage 2's formal stddev (m, rad), marginal of the joint covariance (before any widening).
   Vec6 formal_stddev = Vec6::Constant(std::numeric_limits<double>::infinity());
+  /// Joint with relative tz (JointConfig::relative_tz): the member whose tz stayed fixed in stage
+  /// 2 (itself for the anchor; empty when refined alone or tz was held per LiDAR) and stage 2's
+  /// stddev of this LiDAR's tz relative to it (m; 0 for the anchor): the formal one, at least
+  /// 1.5 mm (rig.cpp), widened by the joint segments' spread.
+  std::string tz_anchor;
+  double tz_relative_stddev_m = std::numeric_limits<double>::infinity();
+  /// Shared stage 3 replaced this LiDAR's tz: what its own stage 3 gave (NaN otherwise).
+  double own_stage3_tz_m = std::numeric_limits<double>::quiet_NaN();
+  bool tz_from_anchor = false;  ///< tz = the joint height relative to the anchor + its stage-3 change
 };
 
 /// T_a_b = T_ins_a^-1 T_ins_b (maps LiDAR b's coordinates into LiDAR a's) with its uncertainty.
@@ -42,6 +51,7 @@ struct RigResult {
   /// overlap[a][b]: occupied voxels (config.refine.joint) shared by a's and b's stage-1 maps over
   /// the smaller map's count.
   std::vector<std::vector<double>> overlap;
+  std::vector<std::size_t> map_voxels;  ///< per LiDAR: occupied voxels of its stage-1 map (that measure)
   std::vector<LidarPair> pairs;    ///< every a < b
   std::vector<std::string> warnings;
   double joint_wall_time_s = 0.0;  ///< stage 2 over all groups
