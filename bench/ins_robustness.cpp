@@ -5,16 +5,18 @@
 //   a heading error is an extrinsic yaw error no method separates). For the drifting drive it
 //   prints the extrinsic with the INS taken as truth (stage 2), the joint estimate (INS
 //   trajectory corrected, whether or not the pipeline applied it) and the final result.
-// coverage: every scenario of bench/scenarios.hpp (default pipeline, repeatability included), per
+// coverage: the scenarios of bench/scenarios.hpp (default pipeline, repeatability included), per
 //   degree of freedom the fraction of runs whose error is within 3 reported standard deviations
-//   (only the DOFs the run says it determined; an undetermined one has no stddev to check).
+//   (a DOF the run reports undetermined counts as covered and is tallied apart; see Coverage).
 //
 //   build/bench/ins_robustness --study drift --seeds 10 [--azimuth-step-deg 0.4]
-//   build/bench/ins_robustness --study coverage --seeds 2 [--scenarios default,drift,...]
+//   build/bench/ins_robustness --study coverage --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
+//       [--scenarios default,drift,...]
 // Skips (exit 0) when the recorded trajectory file is missing.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <memory>
@@ -31,9 +33,12 @@ namespace {
 struct Options {
   std::string study = "drift";
   std::string trajectory_file = "/work/shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt";
-  std::string scenarios = "default,recorded,drift,float,wrong-fix,traffic,no-fiducials,hdl32,os1-64,vlp16,livox-avia";
+  std::string scenarios =
+      "default,recorded,drift,float,wrong-fix,outage,traffic,no-fiducials,no-fiducials-perfect,hdl32,os1-64,vlp16,"
+      "livox-avia";
   double azimuth_step_deg = 0.4;
-  double duration_s = 0.0;
+  double duration_s = 0.0;           ///< drives on the simulator's own trajectory (0: full)
+  double recorded_duration_s = 0.0;  ///< coverage: drives along the recorded trajectory (0: full, 108 s)
 };
 
 // Absolute errors [tx ty tz (m), roll pitch yaw (deg)].
@@ -156,20 +161,32 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
 
 // ---- coverage ------------------------------------------------------------------------------
 
+// How a DOF of one run counts: covered when the error is within 3 reported stddev; a DOF the run
+// reports undetermined (determined false) counts as covered, since the tool said not to trust it
+// (tallied apart, "u"); an infinite stddev on a DOF reported determined counts as not covered.
 struct Coverage {
-  std::array<int, 6> within{}, counted{};
+  std::array<int, 6> within{}, counted{}, undetermined{};
+  int runs = 0, failed = 0;
   void add(const Vec6& err, const Vec6& sd, const std::array<bool, 6>& determined) {
-    for (int i = 0; i < 6; ++i) {
-      if (!determined[static_cast<std::size_t>(i)] || !std::isfinite(sd[i])) continue;
-      ++counted[static_cast<std::size_t>(i)];
-      within[static_cast<std::size_t>(i)] += err[i] <= 3.0 * sd[i];
+    ++runs;
+    for (std::size_t i = 0; i < 6; ++i) {
+      ++counted[i];
+      if (!determined[i]) {
+        ++undetermined[i], ++within[i];
+        continue;
+      }
+      within[i] += std::isfinite(sd[static_cast<int>(i)]) && err[static_cast<int>(i)] <= 3.0 * sd[static_cast<int>(i)];
     }
   }
   void add(const Coverage& o) {
-    for (std::size_t i = 0; i < 6; ++i) within[i] += o.within[i], counted[i] += o.counted[i];
+    for (std::size_t i = 0; i < 6; ++i)
+      within[i] += o.within[i], counted[i] += o.counted[i], undetermined[i] += o.undetermined[i];
+    runs += o.runs, failed += o.failed;
   }
   std::string cell(std::size_t i) const {
-    return counted[i] ? fmt::format("{}/{}", within[i], counted[i]) : std::string("-");
+    if (!counted[i]) return "-";
+    return undetermined[i] ? fmt::format("{}/{} ({}u)", within[i], counted[i], undetermined[i])
+                           : fmt::format("{}/{}", within[i], counted[i]);
   }
 };
 
@@ -181,56 +198,84 @@ std::vector<std::string> split(const std::string& list) {
   return out;
 }
 
+// One run's line: error, 3 sd and error / sd per DOF (mm, deg; "u": reported undetermined).
+void print_coverage_run(const std::string& name, std::uint64_t seed, const Vec6& err, const Vec6& sd,
+                        const CalibrationResult& r, double wall_s) {
+  std::string cells;
+  for (int i = 0; i < 6; ++i) {
+    const double k = i < 3 ? 1e3 : 1.0;
+    cells += fmt::format(" {}={:.4g}/{:.4g}({}{:.2f})", std::array{"tx", "ty", "tz", "roll", "pitch", "yaw"}[i],
+                         k * err[i], 3 * k * sd[i], r.determined[static_cast<std::size_t>(i)] ? "" : "u",
+                         err[i] / sd[i]);
+  }
+  // The parts of the stddev (mm, deg, 1 sigma): stage 2's formal one, the segments' and tz's share.
+  const Vec6 formal = r.trajectory.applied ? r.trajectory.outcome.stddev
+                                           : (r.refine ? r.refine->outcome.stddev : r.rough.outcome.stddev);
+  const Vec6& seg = r.repeatability.stddev_whole_drive;
+  std::string parts;
+  for (int i : {0, 1, 3, 4, 5}) {
+    const double k = i < 3 ? 1e3 : kDegPerRad;
+    parts += fmt::format(" {:.4g}/{:.4g}", k * formal[i], k * seg[i]);
+  }
+  fmt::print(stderr,
+             "RUN {} seed {}:{} | formal/segments{} ({} segments) | tz_coupling {} dxy/dtz {:.4f} {:.4f} added {:.3g} "
+             "{:.3g} mm, rpy {:.2g} {:.2g} {:.2g} deg | correction {} | left out {:.1f} s | {:.0f} s\n",
+             name, seed, cells, parts, r.repeatability.segments_ok, r.tz_coupling.ok ? "on" : "off",
+             r.tz_coupling.dxy_dtz.x(), r.tz_coupling.dxy_dtz.y(), 1e3 * r.tz_coupling.stddev_added_m.x(),
+             1e3 * r.tz_coupling.stddev_added_m.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.x(),
+             kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.z(),
+             r.trajectory.applied ? "applied" : "not applied",
+             spans_duration_s(r.excluded), wall_s);
+}
+
 int coverage_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::uint64_t first_seed) {
-  Coverage all;
-  std::vector<std::pair<std::string, Coverage>> rows;
-  for (const std::string& name : split(o.scenarios)) {
-    Coverage row;
-    for (int s = 0; s < seeds; ++s) {
-      const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(s);
-      const bool livox = name == "livox-avia";
-      bench::ScenarioRun sc = bench::make_scenario(livox ? "default" : name, tool.sim, seed, o.trajectory_file);
-      if (livox) sc.sim.lidar_model = name;
+  const std::vector<std::string> names = split(o.scenarios);
+  std::vector<Coverage> rows(names.size());
+  // Seed-major, so that a study cut short has every scenario at about the same seed count.
+  for (int s = 0; s < seeds; ++s) {
+    const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(s);
+    for (std::size_t n = 0; n < names.size(); ++n) {
+      bench::ScenarioRun sc = bench::make_scenario(names[n], tool.sim, seed, o.trajectory_file);
       sc.sim.azimuth_step_deg = o.azimuth_step_deg;
-      sc.sim.duration_s = o.duration_s;
+      sc.sim.duration_s = sc.recorded ? o.recorded_duration_s : o.duration_s;
       const auto t0 = std::chrono::steady_clock::now();
       const Calibrated c = calibrate(sc.sim, sc.use_init, tool.calibrate);
       if (!c.ok) {
-        fmt::print(stderr, "{} seed {}: FAIL {}\n", name, seed, c.message);
+        ++rows[n].failed;
+        fmt::print(stderr, "RUN {} seed {}: FAIL {}\n", names[n], seed, c.message);
         continue;
       }
       const Vec6 err = abs_error(c.r.T_ins_lidar, c.world->T_ins_lidar_true);
       Vec6 sd = c.r.stddev;
       sd.tail<3>() *= kDegPerRad;
-      Coverage one;
-      one.add(err, sd, c.r.determined);
-      row.add(one);
-      fmt::print(stderr, "{:<12} seed {:>2}: err t {:.1f} {:.1f} {:.1f} mm rpy {:.4f} {:.4f} {:.4f} deg | 3 sd t {:.1f} {:.1f} "
-                 "{:.1f} mm rpy {:.4f} {:.4f} {:.4f} deg | correction {} | {:.0f} s\n",
-                 name, seed, 1e3 * err[0], 1e3 * err[1], 1e3 * err[2], err[3], err[4], err[5], 3e3 * sd[0], 3e3 * sd[1],
-                 3e3 * sd[2], 3 * sd[3], 3 * sd[4], 3 * sd[5], c.r.trajectory.applied ? "applied" : "not applied",
-                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+      rows[n].add(err, sd, c.r.determined);
+      print_coverage_run(names[n], seed, err, sd, c.r,
+                         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
     }
-    all.add(row);
-    rows.push_back({name, row});
   }
+  Coverage all;
+  for (const Coverage& c : rows) all.add(c);
   fmt::print("\nRuns whose error is within 3 reported standard deviations, per DOF ({} seeds from {} per scenario, "
-             "azimuth step {} deg; determined DOFs only)\n\n", seeds, first_seed, o.azimuth_step_deg);
-  fmt::print("| {:<14} | {:>5} | {:>5} | {:>5} | {:>5} | {:>5} | {:>5} |\n", "scenario", "tx", "ty", "tz", "roll",
-             "pitch", "yaw");
-  fmt::print("|{:-<16}|{:->7}|{:->7}|{:->7}|{:->7}|{:->7}|{:->7}|\n", "", "", "", "", "", "", "");
-  rows.push_back({"all", all});
-  for (const auto& [name, c] : rows)
-    fmt::print("| {:<14} | {:>5} | {:>5} | {:>5} | {:>5} | {:>5} | {:>5} |\n", name, c.cell(0), c.cell(1), c.cell(2),
-               c.cell(3), c.cell(4), c.cell(5));
+             "azimuth step {} deg; (Nu): N of them reported undetermined, counted as covered)\n\n", seeds, first_seed,
+             o.azimuth_step_deg);
+  fmt::print("| {:<20} | {:>4} | {:>9} | {:>9} | {:>9} | {:>9} | {:>9} | {:>9} |\n", "scenario", "runs", "tx", "ty",
+             "tz", "roll", "pitch", "yaw");
+  fmt::print("|{:-<22}|{:->6}|{:->11}|{:->11}|{:->11}|{:->11}|{:->11}|{:->11}|\n", "", "", "", "", "", "", "", "");
+  auto row = [](const std::string& name, const Coverage& c) {
+    fmt::print("| {:<20} | {:>4} | {:>9} | {:>9} | {:>9} | {:>9} | {:>9} | {:>9} |\n", name,
+               c.failed ? fmt::format("{}+{}F", c.runs, c.failed) : fmt::format("{}", c.runs), c.cell(0), c.cell(1),
+               c.cell(2), c.cell(3), c.cell(4), c.cell(5));
+  };
+  for (std::size_t n = 0; n < names.size(); ++n) row(names[n], rows[n]);
+  row("all", all);
   int within = 0, counted = 0;
   double worst_dof = 1.0;
   for (std::size_t i = 0; i < 6; ++i) {
     within += all.within[i], counted += all.counted[i];
     if (all.counted[i]) worst_dof = std::min(worst_dof, double(all.within[i]) / all.counted[i]);
   }
-  fmt::print("\noverall {}/{} = {:.1f}% (target >= 95%); worst DOF {:.1f}% (target >= 90%)\n", within, counted,
-             counted ? 100.0 * within / counted : 0.0, 100.0 * worst_dof);
+  fmt::print("\noverall {}/{} = {:.1f}% (target >= 95%); worst DOF {:.1f}% (target >= 90%); failed runs {}\n", within,
+             counted, counted ? 100.0 * within / counted : 0.0, 100.0 * worst_dof, all.failed);
   return 0;
 }
 
@@ -249,7 +294,11 @@ int main(int argc, char** argv) {
   app.add_option("--trajectory", o.trajectory_file, "recorded pose file")->capture_default_str();
   app.add_option("--scenarios", o.scenarios, "coverage: comma-separated scenario names")->capture_default_str();
   app.add_option("--azimuth-step-deg", o.azimuth_step_deg)->capture_default_str();
-  app.add_option("--duration-s", o.duration_s, "truncate drives (0: full)")->capture_default_str();
+  app.add_option("--duration-s", o.duration_s, "truncate drives (0: full; coverage: the figure-8 ones)")
+      ->capture_default_str();
+  app.add_option("--recorded-duration-s", o.recorded_duration_s,
+                 "coverage: truncate drives along the recorded trajectory (0: full)")
+      ->capture_default_str();
   std::vector<std::string> assignments;
   app.add_option("--set", assignments, "override a parameter (keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);

@@ -60,12 +60,9 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
 }
 
 // The formal stddev treats every point as independent and comes out 10-50x below the
-// benchmark's errors; the segments' disagreement is an honest floor.
+// benchmark's errors; the segments' disagreement is an honest floor (core/repeatability).
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
-  for (int i : {0, 1, 3, 4, 5}) {
-    const double sigma = rep.stddev_whole_drive[i];
-    if (std::isfinite(sigma) && !(r.stddev[i] >= sigma)) r.stddev[i] = sigma;
-  }
+  r.stddev = stddev_with_repeatability(r.stddev, rep);
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);
 }
 
@@ -82,7 +79,8 @@ FrameStore screen_after_stage1(const FrameStore& store, const PipelineConfig& co
 }
 
 // tz not fixed by stage 3: stage 2 held it where stage 1 left it, and absorbed its error in x and
-// y; their stddev carries tz's uncertainty (stage 1's, when it estimated tz, else the assumed one).
+// y (and a little in the rotation); their stddev carries tz's uncertainty (stage 1's, when it
+// estimated tz, else the assumed one).
 void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t>& frames, const PipelineConfig& config,
                           CalibrationResult& r) {
   const double sd = r.rough.tz_estimated && std::isfinite(r.rough.outcome.stddev[2])
@@ -92,6 +90,7 @@ void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t
                               config.refine, sd);
   if (!r.tz_coupling.ok) return;
   for (int i : {0, 1}) r.stddev[i] = std::hypot(r.stddev[i], r.tz_coupling.stddev_added_m[i]);
+  for (int i : {0, 1, 2}) r.stddev[3 + i] = std::hypot(r.stddev[3 + i], r.tz_coupling.rpy_stddev_added_rad[i]);
   r.warnings.push_back(fmt::format(
       "tz is not determined (+- {:.2f} m assumed): x and y move {:.1f}, {:.1f} mm per 0.1 m of tz on this drive, and their "
       "stddev includes that (fiducials or --ins-height-m fix tz)",
@@ -134,7 +133,9 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
                 const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);
-  r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
+  ZConfig z_config = config.z;  // a drifting INS's height error enters tz's stddev (core/tz_coupling)
+  z_config.ins_vertical_sigma_m = ins_height_sigma_m(placed, config.z.ins_vertical_sigma_m);
+  r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, z_config);
   progress("z", 1.0);
   r.T_ins_lidar = r.z.T_ins_lidar;
   r.determined[2] = r.z.determined() || r.rough.tz_estimated;

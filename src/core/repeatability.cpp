@@ -2,6 +2,7 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
@@ -90,6 +91,24 @@ void summarise(const RepeatabilityInputs& in, const RepeatabilityConfig& config,
 }
 
 }  // namespace
+
+Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability) {
+  const Vec6& segments = repeatability.stddev_whole_drive;
+  double log_sum = 0.0;
+  int n = 0;
+  for (int i : {0, 1, 3, 4, 5}) {
+    if (!(std::isfinite(segments[i]) && segments[i] > 0.0 && std::isfinite(formal[i]) && formal[i] > 0.0)) continue;
+    log_sum += std::log(segments[i] / formal[i]);
+    ++n;
+  }
+  const double inflation = n > 0 ? std::max(1.0, std::exp(log_sum / n)) : 1.0;
+  Vec6 out = formal;
+  for (int i : {0, 1, 3, 4, 5}) {
+    if (!std::isfinite(segments[i])) continue;
+    out[i] = std::max({std::isfinite(formal[i]) ? formal[i] : 0.0, segments[i], inflation * formal[i]});
+  }
+  return out;
+}
 
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
                                       const RoughConfig& rough, const RefineConfig& refine,

@@ -66,6 +66,16 @@ struct RepeatabilityInputs {
   double max_speed_mps = 0.0;
 };
 
+/// The stddev to report from the formal one (m, rad; the stages' least-squares value) and the
+/// segments': per DOF the largest of the formal stddev, the segments' stddev_whole_drive, and the
+/// formal stddev times the segments' typical inflation (the geometric mean over the DOFs that
+/// have both of stddev_whole_drive / formal). A spread from 3 segments has 2 degrees of freedom
+/// and comes out near 0 by chance (seen: y 0.19 mm for an error of 0.9 mm); how far the formal
+/// stddev underestimates (residuals are correlated, not independent) is a property of the drive
+/// shared by its DOFs, and pooled over five DOFs it has about 10. DOFs without a finite
+/// segment value keep their formal stddev.
+Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability);
+
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
                                       const RoughConfig& rough, const RefineConfig& refine,
                                       const RepeatabilityConfig& config);

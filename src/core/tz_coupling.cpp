@@ -1,9 +1,25 @@
 #include "core/tz_coupling.hpp"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace insalign {
+
+double ins_height_sigma_m(const FrameStore& store, double assumed_m) {
+  double best = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
+  std::size_t n = 0;
+  for (const InsQuality& q : store.data().ins_quality) {
+    if (!std::isfinite(q.vertical_stddev_m) || store.excluded(q.t_s, q.t_s)) continue;
+    best = std::min(best, q.vertical_stddev_m);
+    sum_sq += q.vertical_stddev_m * q.vertical_stddev_m;
+    ++n;
+  }
+  if (n == 0) return assumed_m;
+  const double growth_sq = std::max(0.0, sum_sq / static_cast<double>(n) - best * best);
+  return std::sqrt(assumed_m * assumed_m + growth_sq);
+}
 
 TzCoupling tz_coupling(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
                        double time_offset_s, bool time_offset_free, const RefineConfig& config, double tz_sigma_m) {
@@ -29,6 +45,8 @@ TzCoupling tz_coupling(const FrameStore& store, const std::vector<std::size_t>& 
   if (!d.allFinite()) return out;
   out.dxy_dtz = d.head<2>();
   out.stddev_added_m = out.dxy_dtz.cwiseAbs() * tz_sigma_m;
+  out.drpy_dtz = d.segment<3>(2);
+  out.rpy_stddev_added_rad = out.drpy_dtz.cwiseAbs() * tz_sigma_m;
   out.ok = true;
   return out;
 }
