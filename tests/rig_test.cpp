@@ -3,6 +3,7 @@
 // is refined alone and says so; the joint system's Jacobian and the LiDAR-to-LiDAR propagation are
 // checked numerically; the rig outputs read back.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -227,6 +228,14 @@ TEST(Rig, OutputsRoundTrip) {
   EXPECT_EQ(file.pairs[0].a, "top");
   EXPECT_EQ(file.pairs[0].b, "left");
   EXPECT_TRUE(file.pairs[0].T_a_b.isApprox(run.result.pairs[0].T_a_b, 1e-12));
+  // Each LiDAR's own extrinsic.json says which LiDAR's height its tz was measured against.
+  for (std::size_t i = 0; i < 2; ++i) {
+    const RigLidar& lidar = run.result.lidars[i];
+    const auto j = nlohmann::json::parse(io::read_file(out / lidar.name / "extrinsic.json"));
+    EXPECT_EQ(j["rig"]["tz_anchor"].is_null(), lidar.tz_anchor.empty()) << lidar.name;
+    if (!lidar.tz_anchor.empty()) EXPECT_EQ(j["rig"]["tz_anchor"].get<std::string>(), lidar.tz_anchor);
+    EXPECT_EQ(j["rig"]["tz_from_anchor"].get<bool>(), lidar.tz_from_anchor);
+  }
   const std::string urdf = io::read_file(out / "rig.urdf");
   EXPECT_NE(urdf.find("<joint name=\"ins_to_top\""), std::string::npos);
   EXPECT_NE(urdf.find("<joint name=\"ins_to_left\""), std::string::npos);

@@ -17,6 +17,8 @@ using nlohmann::json;
 
 std::string pair_key(const std::string& a, const std::string& b) { return a + "__" + b; }
 
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
 json lidar_json(const RigLidar& lidar) {
   const CalibrationResult& r = lidar.result;
   json stddev = dof_json(r.stddev);
@@ -85,7 +87,11 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
   json j = result_to_json(r, run);
   j["rig"] = {{"name", lidar.name}, {"joint_with", lidar.joint_with}, {"note", lidar.joint_note},
               {"determined_alone", determined_json(lidar.determined_alone)},
-              {"formal_stddev", dof_json(lidar.formal_stddev)}};
+              {"formal_stddev", dof_json(lidar.formal_stddev)},
+              {"tz_anchor", lidar.tz_anchor.empty() ? json(nullptr) : json(lidar.tz_anchor)},
+              {"tz_relative_stddev_m", finite_or_null(lidar.tz_relative_stddev_m)},
+              {"tz_from_anchor", lidar.tz_from_anchor},
+              {"own_stage3_tz_m", finite_or_null(lidar.own_stage3_tz_m)}};
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
@@ -193,6 +199,9 @@ std::string rig_summary_text(const RigResult& rig, double peak_memory_mb) {
     s += fmt::format("  {:<10}", "  stddev");
     for (int i = 0; i < 6; ++i) s += fmt::format(" {:>8}{}", dof_text(i, r.stddev[i]), r.determined[i] ? ' ' : '!');
     s += "\n    " + lidar.joint_note + "\n";
+    if (!lidar.tz_anchor.empty() && lidar.tz_anchor != lidar.name)
+      s += fmt::format("    tz: measured relative to '{}' (+- {:.1f} mm){}\n", lidar.tz_anchor, 1e3 * lidar.tz_relative_stddev_m,
+                       lidar.tz_from_anchor ? fmt::format(", stage 3 of '{}' applied", lidar.tz_anchor) : std::string());
     for (const std::string& w : r.warnings) s += "    warning: " + w + "\n";
   }
   s += "LiDAR-to-LiDAR T_a_b (x y z m, roll pitch yaw deg) +- stddev\n";
