@@ -18,6 +18,7 @@
 
 #include <fmt/format.h>
 
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "io/bag/bag_writer.hpp"
 #include "io/bag/lz4_frame.hpp"
@@ -41,12 +42,7 @@ constexpr double kSpeed = 5.0;  // m/s
 constexpr double kPi = 3.14159265358979323846;
 const GeodeticPoint kOrigin{48.1, 11.5, 500.0};
 
-fs::path fresh_dir(const std::string& tag) {
-  const fs::path dir = fs::temp_directory_path() / ("insalign_bagds_" + tag + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_bagds_", tag); }
 
 constexpr double kFirstInsS = kT0 - 0.1;  // the first INS record: the world's origin
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "cli/sim_bag_export.hpp"
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
 #include "io/bag_dataset.hpp"
@@ -33,12 +34,7 @@ using cli::LidarConvention;
 using io::bag::BagFormat;
 using io::bag::Compression;
 
-fs::path fresh_dir(const std::string& tag) {
-  const fs::path dir = fs::temp_directory_path() / ("insalign_bag_e2e_" + tag + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_bag_e2e_", tag); }
 
 // The PCD folder exactly as cmd_simulate writes it (binary PCDs with absolute timestamps, the
 // 100 Hz TUM pose file, init-extrinsic.json, fiducials.txt), read back through load_dataset.

@@ -22,6 +22,7 @@
 #include <utility>
 #include <vector>
 
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "io/bag/bag_reader.hpp"
@@ -38,26 +39,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path fresh_dir(const std::string& tag) {
-  const fs::path dir = fs::temp_directory_path() / ("insalign_cli_inputs_" + tag + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_cli_inputs_", tag); }
 
-/// Exit code and stdout + stderr of a command line.
-std::pair<int, std::string> run(const std::string& args) {
-  const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
-  FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return {-1, "popen failed"};
-  std::string out;
-  char buf[4096];
-  while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
-
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+/// Exit code and stdout + stderr of an insalign command line.
+std::pair<int, std::string> run(const std::string& args) { return testing::run_command(std::string(INSALIGN_EXE) + " " + args); }
+using testing::contains;
 
 /// `simulate --format ...` of the short sparse drive into dir; returns the recording's path.
 fs::path simulate(const fs::path& dir, const std::string& format, const std::string& convention, const std::string& ins,

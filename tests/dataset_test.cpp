@@ -1,4 +1,5 @@
 // load_dataset, summarize_drive and `insalign info`, on the real sample and on synthetic folders.
+#include "cli_test_util.hpp"
 #include "io/dataset.hpp"
 
 #include <gtest/gtest.h>
@@ -45,15 +46,7 @@ Sweep synthetic_sweep(std::size_t n, double t_end_s, unsigned seed) {
 }
 
 // Runs a command line, returning (exit code, stdout + stderr).
-std::pair<int, std::string> run(const std::string& cmd) {
-  std::string out;
-  FILE* pipe = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (pipe == nullptr) return {-1, ""};
-  std::array<char, 4096> buf;
-  while (std::fgets(buf.data(), buf.size(), pipe) != nullptr) out += buf.data();
-  const int status = ::pclose(pipe);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-}
+using testing::run_command;
 
 TEST(Dataset, RealSampleMatchesSweepsToPosesByName) {
   if (!fs::exists(kSample)) GTEST_SKIP() << "shared sample data not found at " << kSample;
@@ -209,7 +202,7 @@ TEST(Dataset, FrameTimesFromPcdWhenNamesAreNotTimes) {
 
 TEST(InfoCommand, RealSample) {
   if (!fs::exists(kSample)) GTEST_SKIP() << "shared sample data not found at " << kSample;
-  const auto [rc, out] = run(std::string(INSALIGN_EXE) + " info --lidar-dir " + (kSample / "top_center_lidar").string() +
+  const auto [rc, out] = run_command(std::string(INSALIGN_EXE) + " info --lidar-dir " + (kSample / "top_center_lidar").string() +
                              " --poses " + (kSample / "NovAtel-pose-lidar-time.txt").string());
   EXPECT_EQ(rc, 0) << out;
   EXPECT_NE(out.find("5 used of 5 .pcd files"), std::string::npos) << out;
@@ -222,16 +215,16 @@ TEST(InfoCommand, RealSample) {
 
 TEST(InfoCommand, BadPathsAndFilesExitTwoNamingTheFile) {
   const fs::path dir = temp_dir("cli");
-  auto [rc, out] = run(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "missing").string() + " --poses x");
+  auto [rc, out] = run_command(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "missing").string() + " --poses x");
   EXPECT_EQ(rc, 2) << out;
   EXPECT_NE(out.find((dir / "missing").string()), std::string::npos) << out;
   write_pcd(dir / "lidar" / "1.0.pcd", synthetic_sweep(100, 1.0, 1));
   std::ofstream(dir / "poses.txt") << "0 0 0 0 0 0 0 1\n1 0 0 0 oops 0 0 1\n";
-  std::tie(rc, out) = run(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "lidar").string() + " --poses " +
+  std::tie(rc, out) = run_command(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "lidar").string() + " --poses " +
                           (dir / "poses.txt").string());
   EXPECT_EQ(rc, 2) << out;
   EXPECT_NE(out.find((dir / "poses.txt").string() + ":line 2"), std::string::npos) << out;
-  std::tie(rc, out) = run(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "lidar").string());
+  std::tie(rc, out) = run_command(std::string(INSALIGN_EXE) + " info --lidar-dir " + (dir / "lidar").string());
   EXPECT_EQ(rc, 2) << out;  // missing --poses is bad usage
   fs::remove_all(dir);
 }

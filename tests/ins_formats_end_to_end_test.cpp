@@ -18,6 +18,7 @@
 
 #include "cli/sim_ins_export.hpp"
 #include "ins_log_test_util.hpp"
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
 #include "io/fiducials.hpp"
@@ -38,12 +39,7 @@ namespace {
 namespace fs = std::filesystem;
 using cli::PosesFormat;
 
-fs::path fresh_dir(const std::string& tag) {
-  const fs::path dir = fs::temp_directory_path() / ("insalign_ins_e2e_" + tag + "_" + std::to_string(::getpid()));
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
+fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_ins_e2e_", tag); }
 
 // The PCD folder as cmd_simulate writes it, with the 100 Hz TUM poses (the simulator's INS frame).
 void write_pcd_folder(const sim::World& world, const fs::path& dir) {
@@ -103,15 +99,8 @@ struct CliRun {
 };
 
 CliRun run_cli(const std::string& args) {
-  const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
-  CliRun r;
-  std::FILE* pipe = ::popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  char buffer[4096];
-  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) r.output.append(buffer, n);
-  const int status = ::pclose(pipe);
-  r.rc = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  const auto [rc, output] = testing::run_command(std::string(INSALIGN_EXE) + " " + args);
+  return {rc, output};
 }
 
 // The command line options that name `spec`'s input, as a user types them.

@@ -1,0 +1,36 @@
+// Helpers of the tests that write scratch folders or run the insalign command line.
+#pragma once
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+#include <utility>
+
+namespace insalign::testing {
+
+/// An empty folder of its own under the temp directory: prefix, tag and this process's id.
+inline std::filesystem::path fresh_dir(const std::string& prefix, const std::string& tag) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / (prefix + tag + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+/// Exit code (-1: did not exit) and stdout + stderr of a shell command.
+inline std::pair<int, std::string> run_command(const std::string& cmd) {
+  FILE* pipe = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (pipe == nullptr) return {-1, "popen failed"};
+  std::string out;
+  char buf[4096];
+  while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
+  const int status = ::pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+inline bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+}  // namespace insalign::testing
