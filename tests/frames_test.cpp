@@ -1,5 +1,7 @@
 #include "core/frames.hpp"
 
+#include "core/frame_store.hpp"
+
 #include <gtest/gtest.h>
 
 namespace insalign {
@@ -12,6 +14,7 @@ DriveFrames straight(std::size_t n) {
     d.index.push_back(i);
     d.t_end_s.push_back(0.1 * static_cast<double>(i));
     d.motion_m.push_back(static_cast<double>(i));
+    d.T_world_ins.push_back(Iso3(Eigen::Translation3d(static_cast<double>(i), 0.0, 0.0)));
   }
   return d;
 }
@@ -33,6 +36,34 @@ TEST(SpreadOverMotion, PrefersADecodedFrameInsideItsSliceOnly) {
   d.decoded.assign(d.size(), 0);
   d.decoded[60] = 1;  // the third slice's only decoded frame; the others keep their centres
   EXPECT_EQ(spread_over_motion(d, 4), (std::vector<std::size_t>{13, 38, 60, 88}));
+}
+
+// A straight 10 m/s drive of 101 frames at 10 Hz, poses at 100 Hz, empty sweeps.
+Dataset straight_dataset() {
+  Dataset data;
+  std::vector<Sweep> sweeps(101);
+  for (std::size_t i = 0; i < sweeps.size(); ++i) sweeps[i].t_end_s = 1.0 + 0.1 * static_cast<double>(i);
+  data.frames = frame_source_from(std::move(sweeps));
+  std::vector<StampedPose> poses;
+  for (int k = 0; k <= 1200; ++k) poses.push_back({0.01 * k, Iso3(Eigen::Translation3d(0.1 * k, 0.0, 0.0))});
+  data.poses = PoseStream(std::move(poses));
+  return data;
+}
+
+TEST(CheckSample, TakesTheDecodedFramesWhenThereAreEnough) {
+  const Dataset data = straight_dataset();
+  const FrameStore store(data, SweepFilter{});
+  EXPECT_EQ(check_sample(store, 10).size(), 10u);  // nothing decoded: spread over every frame
+  const std::vector<std::size_t> used = {10, 11, 12, 13, 50, 51, 52, 90};
+  store.load(used);
+  EXPECT_EQ(check_sample(store, 10), used);  // at least n / 2 decoded, at most n: all of them
+  // More than n: n of them, evenly in time order.
+  EXPECT_EQ(check_sample(store, 4), (std::vector<std::size_t>{10, 12, 50, 52}));
+  const std::vector<std::size_t> spread = check_sample(store, 40);  // fewer than n / 2: every frame's
+  EXPECT_GE(spread.size(), 36u);
+  EXPECT_LE(spread.front(), 3u);
+  EXPECT_GE(spread.back(), 97u);
+  EXPECT_EQ(store.frames_decoded(), used.size());
 }
 
 }  // namespace

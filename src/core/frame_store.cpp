@@ -64,6 +64,10 @@ const Sweep& FrameStore::reduced(std::size_t index) const {
   return *slot.sweep;
 }
 
+void FrameStore::load(const std::vector<std::size_t>& indices) const {
+  tbb::parallel_for(std::size_t{0}, indices.size(), [&](std::size_t k) { reduced(indices[k]); });
+}
+
 std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const {
   std::vector<Sweep> out(indices.size());
   tbb::parallel_for(std::size_t{0}, indices.size(),

@@ -92,6 +92,8 @@ class FrameStore {
   /// decoded on first use. Thread-safe; throws what the
   /// dataset's loader throws (and tries again on the next call).
   const Sweep& reduced(std::size_t index) const;
+  /// Decodes the given frames now, in parallel (the checks after stage 1 sample decoded frames).
+  void load(const std::vector<std::size_t>& indices) const;
   /// `filter` applied to the stored copies of the given frames, in parallel, then the mask.
   std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const;
 

@@ -149,6 +149,23 @@ std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size
   return out;
 }
 
+std::vector<std::size_t> check_sample(const FrameStore& store, std::size_t n, double time_offset_s) {
+  const DriveFrames drive = drive_frames(store, time_offset_s);
+  std::vector<std::size_t> decoded;
+  for (std::size_t k = 0; k < drive.size(); ++k)
+    if (drive.decoded[k]) decoded.push_back(drive.index[k]);
+  std::vector<std::size_t> out;
+  if (decoded.empty() || decoded.size() < n / 2) {  // too few decoded (nothing before it, a short stage 1): any
+    for (std::size_t k : spread_over_motion(drive, n)) out.push_back(drive.index[k]);
+    return out;
+  }
+  if (decoded.size() <= n) return decoded;
+  // n of them, evenly in time order (they are spread over the drive already; spreading them
+  // again by motion would leave slices between stage 1's groups empty).
+  for (std::size_t i = 0; i < n; ++i) out.push_back(decoded[i * decoded.size() / n]);
+  return out;
+}
+
 std::vector<std::vector<std::size_t>> spread_groups(const DriveFrames& frames, const FramesConfig& config,
                                                     std::size_t n_groups, std::size_t per_group) {
   std::vector<std::vector<std::size_t>> groups;

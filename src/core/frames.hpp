@@ -102,6 +102,13 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s = 0.0, do
 std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first = 0,
                                             std::size_t last = static_cast<std::size_t>(-1));
 
+/// Up to n frames (dataset indices, time order) for a check that samples the drive after stage 1
+/// (INS screening, moving points): the decoded ones when at least n / 2 are (n of them, evenly in
+/// time order, if more); else n spread over every frame's motion. The decoded frames are the ones
+/// the stages use (stage 1's, and stage 2's, loaded before the checks), and decoding a sweep costs
+/// more than checking it.
+std::vector<std::size_t> check_sample(const FrameStore& store, std::size_t n, double time_offset_s = 0.0);
+
 /// Up to n_groups groups of per_group consecutive frames that each moved by at least the
 /// config's min step from the previous member, anchored at the starts of equal slices of the
 /// motion measure, never overlapping. Dataset frame indices, time order.

@@ -462,10 +462,7 @@ FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig
 FrameStore leave_out_lidar_spans(const FrameStore& store, const Iso3& T_ins_lidar, const InsScreenConfig& config,
                                  InsScreenResult& out) {
   if (!config.from_lidar) return store;
-  const DriveFrames drive = drive_frames(store);
-  std::vector<std::size_t> frames;
-  for (std::size_t k : spread_over_motion(drive, config.max_frames)) frames.push_back(drive.index[k]);
-  InsScreenResult lidar = screen_with_lidar(store, frames, T_ins_lidar, 0.0, config);
+  InsScreenResult lidar = screen_with_lidar(store, check_sample(store, config.max_frames), T_ins_lidar, 0.0, config);
   lidar.typical_stddev_m = out.typical_stddev_m;
   std::vector<TimeSpan> spans = out.spans;
   spans.insert(spans.end(), lidar.spans.begin(), lidar.spans.end());

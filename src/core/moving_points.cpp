@@ -190,9 +190,7 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
   const auto start = std::chrono::steady_clock::now();
   result = {};
   if (!config.enabled) return nullptr;
-  const DriveFrames drive = drive_frames(store, time_offset_s);
-  std::vector<std::size_t> picks;
-  for (std::size_t k : spread_over_motion(drive, config.max_frames)) picks.push_back(drive.index[k]);
+  const std::vector<std::size_t> picks = check_sample(store, config.max_frames, time_offset_s);
   if (picks.size() < 2 * config.min_free_frames) return nullptr;
   SweepFilter filter = config.filter;
   filter.min_range_m = std::max(filter.min_range_m, store.base_filter().min_range_m);
