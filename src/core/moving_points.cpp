@@ -16,15 +16,12 @@ namespace {
 constexpr std::size_t kBatchFrames = 16;  // frames whose evidence is held at once before merging
 
 std::uint64_t ground_key(const Vec3f& p, double inv_cell_m) {
-  return voxel_key(VoxelCell{static_cast<std::int64_t>(std::floor(p.x() * inv_cell_m)),
-                             static_cast<std::int64_t>(std::floor(p.y() * inv_cell_m)), 0});
+  return voxel_key(VoxelCell{floor_int(p.x() * inv_cell_m), floor_int(p.y() * inv_cell_m), 0});
 }
 
 // Evidence voxel of a point at height h above (ground + clearance); h in [0, top).
 std::uint64_t evidence_key(const Vec3f& p, double h_m, double inv_voxel_m) {
-  return voxel_key(VoxelCell{static_cast<std::int64_t>(std::floor(p.x() * inv_voxel_m)),
-                             static_cast<std::int64_t>(std::floor(p.y() * inv_voxel_m)),
-                             static_cast<std::int64_t>(std::floor(h_m * inv_voxel_m))});
+  return voxel_key(VoxelCell{floor_int(p.x() * inv_voxel_m), floor_int(p.y() * inv_voxel_m), floor_int(h_m * inv_voxel_m)});
 }
 
 // Height above ground + clearance, or NaN when the point is not judged (no ground, too low or high).

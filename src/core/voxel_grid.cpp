@@ -8,7 +8,6 @@
 namespace insalign {
 namespace {
 
-constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no voxel key has all 64 bits set
 constexpr std::uint64_t kMix = 0x9E3779B97F4A7C15ull;
 constexpr std::size_t kParallelPoints = 400000;    // below this one pass on one thread is faster
 
@@ -30,15 +29,9 @@ std::vector<std::uint32_t> downsample_in_buckets(std::span<const Vec3f> points, 
   for (std::size_t i = 0; i < keys.size(); ++i) bucketed[fill[(keys[i] * kMix) >> (64 - kBucketBits)]++] = static_cast<std::uint32_t>(i);
   std::vector<std::vector<std::uint32_t>> kept(kBuckets);
   tbb::parallel_for(std::size_t{0}, kBuckets, [&](std::size_t b) {
-    std::size_t capacity = 16;
-    while (capacity < 2 * (begin[b + 1] - begin[b])) capacity <<= 1;
-    std::vector<std::uint64_t> table(capacity, kEmpty);
-    for (std::size_t k = begin[b]; k < begin[b + 1]; ++k) {
-      const std::uint64_t key = keys[bucketed[k]];
-      std::size_t slot = (key * kMix) >> 20 & (capacity - 1);
-      while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
-      if (table[slot] == kEmpty) table[slot] = key, kept[b].push_back(bucketed[k]);
-    }
+    VoxelKeySet seen(begin[b + 1] - begin[b]);
+    for (std::size_t k = begin[b]; k < begin[b + 1]; ++k)
+      if (seen.insert(keys[bucketed[k]])) kept[b].push_back(bucketed[k]);
   });
   std::vector<std::uint32_t> out;
   for (const auto& v : kept) out.insert(out.end(), v.begin(), v.end());
@@ -57,19 +50,9 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
   }
   const double inv = 1.0 / voxel_m;
   if (points.size() >= kParallelPoints) return downsample_in_buckets(points, inv);
-  // Open addressing on packed keys: several times faster than std::unordered_set per sweep.
-  std::size_t capacity = 1024;
-  while (capacity < 2 * points.size()) capacity <<= 1;
-  std::vector<std::uint64_t> table(capacity, kEmpty);
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    const std::uint64_t key = voxel_key(points[i], inv);
-    std::size_t slot = (key * kMix) >> 20 & (capacity - 1);
-    while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
-    if (table[slot] == kEmpty) {
-      table[slot] = key;
-      kept.push_back(static_cast<std::uint32_t>(i));
-    }
-  }
+  VoxelKeySet seen(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (seen.insert(voxel_key(points[i], inv))) kept.push_back(static_cast<std::uint32_t>(i));
   return kept;
 }
 
@@ -85,16 +68,9 @@ std::size_t count_distinct_keys(std::span<const std::uint64_t> keys) {
   for (std::uint64_t key : keys) bucketed[fill[mix(key) >> (64 - kBucketBits)]++] = key;
   std::vector<std::size_t> distinct(kBuckets, 0);
   tbb::parallel_for(std::size_t{0}, kBuckets, [&](std::size_t b) {
-    const std::size_t n = begin[b + 1] - begin[b];
-    std::size_t capacity = 16;
-    while (capacity < 2 * n) capacity <<= 1;
-    std::vector<std::uint64_t> table(capacity, kEmpty);
-    for (std::size_t i = begin[b]; i < begin[b + 1]; ++i) {
-      const std::uint64_t key = bucketed[i];
-      std::size_t slot = (mix(key) >> 20) & (capacity - 1);
-      while (table[slot] != kEmpty && table[slot] != key) slot = (slot + 1) & (capacity - 1);
-      if (table[slot] == kEmpty) table[slot] = key, ++distinct[b];
-    }
+    VoxelKeySet seen(begin[b + 1] - begin[b]);
+    for (std::size_t i = begin[b]; i < begin[b + 1]; ++i) seen.insert(bucketed[i]);
+    distinct[b] = seen.size();
   });
   std::size_t total = 0;
   for (std::size_t d : distinct) total += d;
