@@ -119,12 +119,13 @@ std::vector<std::vector<std::size_t>> overlap_groups(const std::vector<std::vect
   return groups;
 }
 
-// The member whose tz anchors a joint group's heights: the one that sees the most (largest
-// stage-1 map), whose ground the others' is measured against.
+// The member whose tz anchors a joint group's heights, whose ground the others' is measured
+// against: the one whose stage 1 found the most planes (a dense LiDAR that sees much, and
+// calibrated: a wrong extrinsic blurs planes away, where it would grow an occupied-voxel count).
 std::size_t tz_anchor(const std::vector<std::size_t>& members, const RigResult& rig) {
   std::size_t best = members.front();
   for (std::size_t l : members)
-    if (rig.map_voxels[l] > rig.map_voxels[best]) best = l;
+    if (rig.lidars[l].result.rough.planes > rig.lidars[best].result.rough.planes) best = l;
   return best;
 }
 
@@ -355,9 +356,11 @@ void joint_repeatability(const std::vector<RefineLidar>& in, const std::vector<s
 
 // Relative tz, shared stage 3: stage 2 fixed the members' heights relative to the anchor on the
 // shared ground, to about a millimetre; each one's own fiducial tz is worse (a sparse LiDAR meets
-// the ground at the fiducials in a few rings only) and would break that relation again, so the
-// anchor's stage-3 change moves every member alike. Their own stage 3 stays as a check: a member
-// whose own dz disagrees beyond 3 sigma gets a warning.
+// the ground at the fiducials in a few rings only) and would break that relation again, so one
+// stage-3 change moves every member alike: the median of the members' own changes (each measures
+// the same common height; the median stays right when one LiDAR is badly off, as a LiDAR whose
+// stage 1 ended in a wrong basin is). A member whose own change disagrees beyond 3 sigma gets a
+// warning: its own stage 3 is kept as a check.
 std::size_t anchor_of(const std::vector<std::size_t>& members, const RigResult& rig) {
   std::size_t anchor = members.front();
   for (std::size_t l : members)
@@ -376,28 +379,36 @@ void shared_tz_stddevs(const std::vector<std::size_t>& members, RigResult& rig) 
 void share_anchor_stage3(const std::vector<std::size_t>& members, const std::vector<double>& tz_before_m,
                          RigResult& rig) {
   const std::size_t anchor = anchor_of(members, rig);
+  std::vector<double> own_dz_m;
+  for (std::size_t l : members)
+    if (rig.lidars[l].result.z.determined()) own_dz_m.push_back(rig.lidars[l].result.z.dz_m);
+  if (own_dz_m.empty()) return;  // nothing to share: each keeps what its own stage 3 said
+  std::sort(own_dz_m.begin(), own_dz_m.end());
+  const std::size_t m = own_dz_m.size();
+  const double dz_m = m % 2 ? own_dz_m[m / 2] : 0.5 * (own_dz_m[m / 2 - 1] + own_dz_m[m / 2]);
   const CalibrationResult& a = rig.lidars[anchor].result;
-  if (!a.z.determined()) return;  // nothing to share: each keeps what its own stage 3 said
-  const double dz_m = a.z.dz_m, sd_anchor_m = a.stddev[2];
+  const double sd_common_m = a.z.determined() ? a.stddev[2] : a.z.tz_stddev_m();
   for (std::size_t k = 0; k < members.size(); ++k) {
     RigLidar& lidar = rig.lidars[members[k]];
     CalibrationResult& r = lidar.result;
-    if (members[k] == anchor || !std::isfinite(lidar.tz_relative_stddev_m)) continue;
-    const double own_dz_m = r.z.determined() ? r.z.dz_m : std::nan("");
+    const bool is_anchor = members[k] == anchor;
+    if (!is_anchor && !std::isfinite(lidar.tz_relative_stddev_m)) continue;
+    const double own_dz = r.z.determined() ? r.z.dz_m : std::nan("");
     if (r.z.determined()) lidar.own_stage3_tz_m = r.T_ins_lidar.translation().z();
-    lidar.tz_from_anchor = true;
+    lidar.tz_from_anchor = !is_anchor;
     r.T_ins_lidar.translation().z() = tz_before_m[k] + dz_m;
-    r.stddev[2] = std::hypot(sd_anchor_m, lidar.tz_relative_stddev_m);
+    r.stddev[2] = is_anchor ? sd_common_m : std::hypot(sd_common_m, lidar.tz_relative_stddev_m);
     r.determined[2] = true;
     const double own_sd_m = r.z.determined() ? r.z.tz_stddev_m() : 0.0;
-    if (std::isfinite(own_dz_m) && std::abs(own_dz_m - dz_m) > 3.0 * std::hypot(own_sd_m, r.stddev[2]))
-      r.warnings.push_back(fmt::format("{}its own stage 3 moves tz by {:+.1f} mm, the anchor '{}' by {:+.1f} mm: "
-                                       "the relative height from the joint map was kept",
-                                       prefix(lidar.name), 1e3 * own_dz_m, rig.lidars[anchor].name, 1e3 * dz_m));
+    if (std::isfinite(own_dz) && std::abs(own_dz - dz_m) > 3.0 * std::hypot(own_sd_m, r.stddev[2]))
+      r.warnings.push_back(fmt::format("{}its own stage 3 moves tz by {:+.1f} mm, the rig's (median of {} LiDARs) by "
+                                       "{:+.1f} mm: the relative height from the joint map was kept; check this LiDAR",
+                                       prefix(lidar.name), 1e3 * own_dz, m, 1e3 * dz_m));
     r.z.T_ins_lidar = r.T_ins_lidar;
     r.z.dz_m = dz_m;
-    r.z.outcome.message += fmt::format(" (rig: tz = the joint height relative to '{}' plus its stage-3 change; "
-                                       "own stage 3 said {:+.1f} mm)", rig.lidars[anchor].name, 1e3 * own_dz_m);
+    r.z.outcome.message += fmt::format(" (rig: tz = the joint height relative to '{}' plus the median of {} LiDARs' "
+                                       "stage-3 changes; own stage 3 said {:+.1f} mm)",
+                                       rig.lidars[anchor].name, m, 1e3 * own_dz);
   }
 }
 

@@ -32,7 +32,7 @@ struct RigLidar {
   double tz_relative_stddev_m = std::numeric_limits<double>::infinity();
   /// Shared stage 3 replaced this LiDAR's tz: what its own stage 3 gave (NaN otherwise).
   double own_stage3_tz_m = std::numeric_limits<double>::quiet_NaN();
-  bool tz_from_anchor = false;  ///< tz = the joint height relative to the anchor + its stage-3 change
+  bool tz_from_anchor = false;  ///< tz = the joint height relative to the anchor + the rig's stage-3 change (median)
 };
 
 /// T_a_b = T_ins_a^-1 T_ins_b (maps LiDAR b's coordinates into LiDAR a's) with its uncertainty.

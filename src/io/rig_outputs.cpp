@@ -201,7 +201,7 @@ std::string rig_summary_text(const RigResult& rig, double peak_memory_mb) {
     s += "\n    " + lidar.joint_note + "\n";
     if (!lidar.tz_anchor.empty() && lidar.tz_anchor != lidar.name)
       s += fmt::format("    tz: measured relative to '{}' (+- {:.1f} mm){}\n", lidar.tz_anchor, 1e3 * lidar.tz_relative_stddev_m,
-                       lidar.tz_from_anchor ? fmt::format(", stage 3 of '{}' applied", lidar.tz_anchor) : std::string());
+                       lidar.tz_from_anchor ? std::string(", the rig's stage 3 applied (median of its LiDARs')") : std::string());
     for (const std::string& w : r.warnings) s += "    warning: " + w + "\n";
   }
   s += "LiDAR-to-LiDAR T_a_b (x y z m, roll pitch yaw deg) +- stddev\n";
