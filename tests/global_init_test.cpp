@@ -149,10 +149,17 @@ TEST(GlobalInit, WrongInitIsOverriddenAndGoodInitKept) {
     EXPECT_LT(err.angle_deg, 5.0) << w.what;
     EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << w.what;
   }
-  // The simulator's guess: 20 deg and 0.5 m off, inside stage 1's basin: kept as given.
-  const GlobalInitResult kept = initialise_extrinsic(testing::store_of(drive.data), drive.world->T_ins_lidar_init);
+  // The simulator's guess: 20 deg and 0.5 m off, in the data's basin: confirmed, and stage 1
+  // starts from the data's own, crisper estimate beside it.
+  const GlobalInitResult near = initialise_extrinsic(testing::store_of(drive.data), drive.world->T_ins_lidar_init);
+  EXPECT_EQ(near.source, InitSource::kDataNearInit) << near.explanation;
+  EXPECT_LT(extrinsic_error(near.T_ins_lidar, T_true).angle_deg, 5.0) << near.explanation;
+  // A guess close to the truth scores about as well as the data's estimate: kept as given.
+  Iso3 close = T_true;
+  close.translation().x() += 0.02;
+  const GlobalInitResult kept = initialise_extrinsic(testing::store_of(drive.data), close);
   EXPECT_EQ(kept.source, InitSource::kInit) << kept.explanation;
-  EXPECT_TRUE(kept.T_ins_lidar.isApprox(drive.world->T_ins_lidar_init));
+  EXPECT_TRUE(kept.T_ins_lidar.isApprox(close));
   // trust_init returns even a wrong init unchanged.
   GlobalInitConfig trust;
   trust.trust_init = true;

@@ -119,8 +119,10 @@ TEST(RigBag, TopicsCalibrateLikeFoldersFromEachLidarsOwnInit) {
     // The same drive from its folders: the same truth (Odometry's ins is the simulator's), the same answer.
     EXPECT_LT(extrinsic_error(transform_of(truth_pcd.at(name).at("T_ins_lidar")), T_true).angle_deg, 1e-9);
     const ExtrinsicError d = extrinsic_error(transform_of(rig_pcd.at("lidars").at(name).at("T_ins_lidar")), T);
-    EXPECT_LE(d.dt_m.norm(), 1e-6);
-    EXPECT_LE(d.angle_deg, 1e-6);
+    // The recording's sweeps and poses equal the folder's to float rounding; the start the data
+    // finds beside the --init (global_init kDataNearInit) carries that into the result: 1e-5.
+    EXPECT_LE(d.dt_m.norm(), 1e-5);
+    EXPECT_LE(d.angle_deg, 1e-5);
     EXPECT_NEAR(rig_pcd.at("lidars").at(name).at("time_offset_s").get<double>(), offset, 1e-6);
   }
   // --init repeated must match the --lidar-topic count: exit 2 before anything is read or written.

@@ -136,7 +136,13 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
   why << " Init differs from " << cand[best].label << fmt::format(" by {:.1f} deg and {:.2f} m", diff.angle_deg, diff.dt_norm_m);
   result.T_ins_lidar = *T_init;
   result.source = InitSource::kInit;
-  if (same_basin) {
+  if (same_basin && ratio > config.override_score_ratio) {
+    result.T_ins_lidar = cand[best].T_ins_lidar;
+    result.T_ins_lidar.translation().z() = T_init->translation().z();  // the data's z is a guess without fiducials
+    result.source = InitSource::kDataNearInit;
+    why << fmt::format(": same basin, init confirmed; starting from {} (with the init's z), which scores {:.3f} times "
+                       "crisper.", cand[best].label, ratio);
+  } else if (same_basin) {
     why << ": same basin, init confirmed.";
   } else if (ratio > config.override_score_ratio) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
