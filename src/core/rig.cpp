@@ -16,11 +16,6 @@ namespace {
 
 using Mat12 = Eigen::Matrix<double, 12, 12>;
 constexpr double kUnknownSigma = 1e3;  // stands in for +inf in the propagation (m, rad)
-// The stated stddev of a member's tz relative to its anchor is at least this (m). The formal one
-// (points taken as independent) said 0.2-0.4 mm where the error was 2-3.5 mm (a side VLP-16 in
-// bench/rig_accuracy, reduced runs); 12 members' relative errors over 4 drives had an RMS of
-// 1.5 mm, and the segments' spread does not see such a bias.
-constexpr double kRelativeTzMinSigma_m = 0.0015;
 
 double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -173,7 +168,7 @@ void take_joint(const JointRefineResult& joint, const std::vector<std::size_t>& 
     if (!lidar.tz_anchor.empty())
       lidar.tz_relative_stddev_m = lidar.tz_anchor == lidar.name
                                        ? 0.0
-                                       : std::max(r.refine->outcome.stddev[2], kRelativeTzMinSigma_m);
+                                       : std::max(r.refine->outcome.stddev[2], config.refine.joint.relative_tz_min_sigma_m);
     for (int i : {0, 1, 3, 4, 5}) {
       const double sd = r.refine->outcome.stddev[i];
       const bool joint_ok = members.size() > 1 && passes(i, sd, config.rough.observability);
