@@ -298,10 +298,12 @@ void spread_into(const std::vector<JointRefineResult>& segments, std::size_t k, 
   const bool tz_relative = std::isfinite(lidar.tz_relative_stddev_m) && lidar.tz_relative_stddev_m > 0.0;
   if (!tz_relative) rep.spread[2] = 0.0;
   const double d_n = range_factor(rep.segments_ok);
-  for (int i : {0, 1, 3, 4, 5}) {
-    rep.stddev_whole_drive[i] = rep.spread[i] / (d_n * std::sqrt(double(rep.segments_ok)));
-    if (r.determined[i] && !(r.stddev[i] >= rep.stddev_whole_drive[i])) r.stddev[i] = rep.stddev_whole_drive[i];
-  }
+  for (int i : {0, 1, 3, 4, 5}) rep.stddev_whole_drive[i] = rep.spread[i] / (d_n * std::sqrt(double(rep.segments_ok)));
+  // The one LiDAR's rule (core/repeatability): at least the segments' spread, and the formal
+  // stddev inflated by the DOFs' pooled segments/formal ratio (three segments agree by chance).
+  const Vec6 widened = stddev_with_repeatability(r.stddev, rep);
+  for (int i : {0, 1, 3, 4, 5})
+    if (r.determined[i]) r.stddev[i] = widened[i];
   if (tz_relative) {
     rep.stddev_whole_drive[2] = rep.spread[2] / (d_n * std::sqrt(double(rep.segments_ok)));
     lidar.tz_relative_stddev_m = std::max(lidar.tz_relative_stddev_m, rep.stddev_whole_drive[2]);
