@@ -97,11 +97,6 @@ void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t
       sd, 1e2 * std::abs(r.tz_coupling.dxy_dtz.x()), 1e2 * std::abs(r.tz_coupling.dxy_dtz.y())));
 }
 
-// Stage 2's frames keep this far from the drive's ends (its time-offset search looks that far).
-double refine_margin_s(const PipelineConfig& config) {
-  return config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0;
-}
-
 }  // namespace
 
 FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
@@ -171,14 +166,15 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   FrameGroups groups = run_start(status_screened, config, progress, r);  // steps 0-2
   // The checks sample decoded frames: load stage 2's first so that they are among them (stage 2
   // picks them again after the checks, the same ones but for those in a span left out).
-  if (config.run_refine) store.load(insalign::refine_frames(status_screened, config.refine, 0.0, refine_margin_s(config)));
+  const double margin_s = refine_margin_s(config.refine);
+  if (config.run_refine) store.load(insalign::refine_frames(status_screened, config.refine, 0.0, margin_s));
   const FrameStore screened = screen_after_stage1(status_screened, config, progress, r);
   if (screened.excluded().size() != status_screened.excluded().size())
     groups = rough_frame_groups(screened, config.rough);  // the repeatability study's stage 1 leaves them out too
 
   // 3. Stage 2 (with an early stage 3 first).
   const std::vector<std::size_t> refine_frames =
-      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0, refine_margin_s(config))
+      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0, margin_s)
                         : std::vector<std::size_t>{};
   if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
   if (config.run_refine) run_trajectory_correction(screened, config, progress, r);

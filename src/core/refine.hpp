@@ -178,6 +178,12 @@ struct RefineResult {
 /// The local-plane parameters of kContinuous as the crispness measure's config.
 PlaneThicknessConfig plane_thickness_config(const RefineConfig& config);
 
+/// How far from the drive's ends stage 2's frames keep: its time-offset search shifts sweeps by up
+/// to this, s (0 when the offset is not estimated).
+inline double refine_margin_s(const RefineConfig& config) {
+  return config.estimate_time_offset ? config.time_offset_range_s : 0.0;
+}
+
 /// Frames spread over the drive's motion whose sweeps, shifted by up to +-margin_s, the poses
 /// cover (no sweep is loaded).
 std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,

@@ -135,7 +135,7 @@ bool relative_tz(const std::vector<std::size_t>& members, const PipelineConfig& 
 std::vector<RefineLidar> group_inputs(const std::vector<FrameStore>& stores, const std::vector<std::size_t>& members,
                                       const PipelineConfig& config, RigResult& rig) {
   std::vector<RefineLidar> in;
-  const double margin = config.refine.estimate_time_offset ? config.refine.time_offset_range_s : 0.0;
+  const double margin = refine_margin_s(config.refine);
   const bool relative = relative_tz(members, config);
   const std::size_t anchor = tz_anchor(members, rig);
   for (std::size_t l : members) {
