@@ -168,6 +168,48 @@ TEST(Rig, JointRefinementMovesTheSideLidarsHeightInsteadOfTiltingIt) {
   EXPECT_GT(held.drpy_deg.head<2>().maxCoeff(), 2.0 * left.drpy_deg.head<2>().maxCoeff());
 }
 
+// The side LiDAR's start 6 deg / 25 cm off and trusted (no data check): its own stage 1 ends 0.4
+// deg / 6 cm off (alone it sees mostly ground and cannot do better), its map then overlaps the
+// roof's too little to be refined jointly, and the rig stops naming it. Its sweeps registered to
+// the roof's map fit 20x better 0.3 deg away; stage 1 from there goes back, so the joint stage 2
+// starts from the map's extrinsic, tied to the roof, and ends within the bounds.
+TEST(Rig, ALidarWhoseStage1IsOffIsStartedFromTheRoofsMap) {
+  PipelineConfig config;
+  SmallRig rig = small_rig(config);
+  rig.drives[1].data.T_ins_lidar_init = testing::perturbed(rig.drives[1].T_ins_lidar_true, 6.0, 0.25, 21);
+  config.init.trust_init = true;
+  config.refine.joint.map_check.enabled = false;
+  try {
+    const RigResult unchecked = run_rig_calibration(rig.stores, rig.names, config);
+    const ExtrinsicError off = extrinsic_error(unchecked.lidars[1].result.T_ins_lidar, rig.drives[1].T_ins_lidar_true);
+    EXPECT_TRUE(off.angle_deg > 0.03 || off.dt_m.head<2>().maxCoeff() > 0.01) << off.angle_deg;
+  } catch (const UnobservableError& e) {
+    EXPECT_NE(std::string(e.what()).find("LiDAR 'left'"), std::string::npos) << e.what();
+  }
+  config.refine.joint.map_check.enabled = true;
+  const RigResult result = run_rig_calibration(rig.stores, rig.names, config);
+  const RigLidar& left = result.lidars[1];
+  const RigMapCheck& check = left.map_check;
+  const ExtrinsicError e = extrinsic_error(left.result.T_ins_lidar, rig.drives[1].T_ins_lidar_true);
+  const ExtrinsicError m = extrinsic_error(check.T_ins_lidar_map, rig.drives[1].T_ins_lidar_true);
+  std::printf("left %.4f deg, dx %.2f dy %.2f mm; the map's extrinsic %.4f deg, moved %.3f deg %.1f mm, RMS %.1f -> %.1f mm\n",
+              e.angle_deg, 1e3 * e.dt_m.x(), 1e3 * e.dt_m.y(), m.angle_deg, check.moved_rot_deg, 1e3 * check.moved_xy_m,
+              1e3 * check.rms_before_m, 1e3 * check.rms_after_m);
+  EXPECT_LT(e.angle_deg, 0.03);
+  EXPECT_LT(e.dt_m.head<2>().maxCoeff(), 0.01);
+  EXPECT_EQ(check.reference, "top");
+  EXPECT_TRUE(check.map_start);
+  EXPECT_FALSE(check.restarted);
+  EXPECT_GT(check.moved_rot_deg, 0.2);
+  EXPECT_LT(m.angle_deg, 0.2);  // stage 1's bound
+  EXPECT_LT(5.0 * check.rms_after_m, check.rms_before_m);
+  EXPECT_EQ(left.joint_with, std::vector<std::string>{"top"});
+  bool said = false;
+  for (const std::string& w : left.result.warnings) said = said || w.find("starts from the map's extrinsic") != std::string::npos;
+  EXPECT_TRUE(said);
+  EXPECT_TRUE(result.lidars[0].map_check.reference.empty());  // the reference itself
+}
+
 TEST(Rig, ALidarThatOverlapsNoOtherIsCalibratedAloneAndSaysSo) {
   PipelineConfig config;
   config.ins_height_m = 1.0;
@@ -235,6 +277,9 @@ TEST(Rig, OutputsRoundTrip) {
     EXPECT_EQ(j["rig"]["tz_anchor"].is_null(), lidar.tz_anchor.empty()) << lidar.name;
     if (!lidar.tz_anchor.empty()) EXPECT_EQ(j["rig"]["tz_anchor"].get<std::string>(), lidar.tz_anchor);
     EXPECT_EQ(j["rig"]["tz_from_anchor"].get<bool>(), lidar.tz_from_anchor);
+    EXPECT_EQ(j["rig"]["map_check"].is_null(), lidar.map_check.reference.empty()) << lidar.name;
+    if (!lidar.map_check.reference.empty())
+      EXPECT_EQ(j["rig"]["map_check"]["map_start"].get<bool>(), lidar.map_check.map_start) << lidar.name;
   }
   const std::string urdf = io::read_file(out / "rig.urdf");
   EXPECT_NE(urdf.find("<joint name=\"ins_to_top\""), std::string::npos);

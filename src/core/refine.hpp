@@ -13,6 +13,7 @@
 
 #include "core/frame_store.hpp"
 #include "core/geometry.hpp"
+#include "core/map_registration.hpp"
 #include "core/occupancy.hpp"
 #include "core/stage.hpp"
 
@@ -52,6 +53,10 @@ struct JointConfig {
   /// Stage 3 afterwards: the median of the members' own corrections moves every member alike
   /// (keeping the heights stage 2 found between them); false: each LiDAR's own stage 3.
   bool shared_stage3 = true;
+  MapCheckConfig map_check;  ///< each LiDAR's stage 1 checked against the best one's map
+  /// A group with a LiDAR stage 1 could not determine alone: at most this many unchecked joint
+  /// passes (until one moves nothing) before the checked one.
+  int weak_passes = 3;
 };
 
 template <class V>
@@ -63,6 +68,8 @@ void visit_config(V& v, JointConfig& c) {
   v("relative_tz", c.relative_tz, "rig: stage 2 moves every member's tz but the anchor's (heights from the shared ground)");
   v("relative_tz_min_sigma_m", c.relative_tz_min_sigma_m, "rig: floor of a member's stated tz stddev relative to the anchor, m");
   v("shared_stage3", c.shared_stage3, "rig: the median of the members' stage-3 tz corrections moves every member alike (false: each its own)");
+  v("weak_passes", c.weak_passes, "rig: unchecked joint passes at most, before the checked one, when a LiDAR was not determined alone");
+  v.section("map_check", c.map_check);
 }
 
 struct RefineConfig {

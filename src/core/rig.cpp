@@ -8,6 +8,7 @@
 #include <numeric>
 
 #include "core/errors.hpp"
+#include "core/map_registration.hpp"
 #include "core/stitch.hpp"
 #include "core/voxel_grid.hpp"
 
@@ -52,6 +53,82 @@ std::vector<FrameGroups> start_all(const std::vector<FrameStore>& stores, const 
   return groups;
 }
 
+// The LiDAR whose stage 1 found the most planes among `members` (a dense LiDAR that sees much,
+// and calibrated: a wrong extrinsic blurs planes away, where it would grow an occupied-voxel count).
+std::size_t most_planes(const std::vector<std::size_t>& members, const RigResult& rig) {
+  std::size_t best = members.front();
+  for (std::size_t l : members)
+    if (rig.lidars[l].result.rough.planes > rig.lidars[best].result.rough.planes) best = l;
+  return best;
+}
+
+// Every LiDAR's stage 1 against the map of the one with the most planes: a LiDAR whose sweeps fit
+// that map clearly better far from its stage 1 (its own start ended in a wrong basin) gets stage 1
+// again from there, kept when that still fits the map clearly better. Where they share too little
+// (the registration finds too few of the map's surfaces), nothing changes.
+void check_against_reference(const std::vector<FrameStore>& stores, const std::vector<FrameGroups>& rough_groups,
+                             const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
+  const MapCheckConfig& c = config.refine.joint.map_check;
+  if (!c.enabled || !config.refine.joint.enabled || stores.size() < 2) return;
+  std::vector<std::size_t> all(stores.size());
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  const std::size_t ref = most_planes(all, rig);
+  const CalibrationResult& rr = rig.lidars[ref].result;
+  const std::vector<Vec3f> map = stitch_map(stores[ref], spread_frames(stores[ref], c.map_frames, rr.time_offset_s),
+                                            rr.T_ins_lidar, rr.time_offset_s, c.map_voxel_m);
+  for (std::size_t l = 0; l < stores.size(); ++l) {
+    if (l == ref) continue;
+    if (progress) progress(rig.lidars[l].name + ": map check", double(l) / double(stores.size()));
+    CalibrationResult& r = rig.lidars[l].result;
+    RigMapCheck& check = rig.lidars[l].map_check;
+    const MapRegistration registration(stores[l], map, r.time_offset_s, c.registration);
+    const MapRegistrationResult reg = registration.solve(r.T_ins_lidar);
+    check.reference = rig.lidars[ref].name;
+    check.converged = reg.converged;
+    check.moved_rot_deg = so3_log(reg.T_ins_lidar.linear() * r.T_ins_lidar.linear().transpose()).norm() * kDegPerRad;
+    check.moved_xy_m = (reg.T_ins_lidar.translation() - r.T_ins_lidar.translation()).head<2>().norm();
+    check.rms_before_m = reg.start.rms_m;
+    check.rms_after_m = reg.end.rms_m;
+    check.T_ins_lidar_map = reg.T_ins_lidar;
+    check.T_ins_lidar_map.translation().z() = r.T_ins_lidar.translation().z();  // the map's own tz error moved it
+    const bool far = check.moved_rot_deg > c.restart_rot_deg || check.moved_xy_m > c.restart_trans_m;
+    if (!reg.converged || !far || check.rms_after_m * c.min_fit_gain > check.rms_before_m) continue;
+    const Iso3& start = check.T_ins_lidar_map;
+    RoughResult again = calibrate_rough(stores[l], rough_groups[l], start, config.rough);
+    check.rms_restarted_m = registration.fit(again.T_ins_lidar).rms_m;
+    const std::string what = fmt::format(
+        "{}its sweeps fit the map of '{}' {:.2f} deg / {:.0f} mm from its stage 1 (point-to-plane RMS {:.1f} mm there, "
+        "{:.1f} mm at stage 1)",
+        prefix(rig.lidars[l].name), check.reference, check.moved_rot_deg, 1e3 * check.moved_xy_m, 1e3 * check.rms_after_m,
+        1e3 * check.rms_before_m);
+    // Kept when it still fits the map clearly better. A stage 1 that goes back to where it was is
+    // biased there: a LiDAR it could not determine alone starts the joint stage 2 from the map's
+    // extrinsic instead; one it did determine contradicts the map, and says so.
+    if (check.rms_restarted_m * c.min_fit_gain > check.rms_before_m) {
+      if (r.rough.outcome.ok()) {
+        r.warnings.push_back(what + fmt::format("; stage 1 from there went back (RMS {:.1f} mm): kept, check this LiDAR",
+                                                1e3 * check.rms_restarted_m));
+        continue;
+      }
+      check.map_start = true;
+      r.warnings.push_back(what + fmt::format("; its stage 1 (not determined alone) went back from there (RMS {:.1f} mm): "
+                                              "the joint stage 2 starts from the map's extrinsic",
+                                              1e3 * check.rms_restarted_m));
+      r.rough.T_ins_lidar = start;
+      r.T_ins_lidar = start;
+      continue;
+    }
+    check.restarted = true;
+    r.warnings.push_back(what + fmt::format("; stage 1 restarted from there (RMS {:.1f} mm, {} planes, was {})",
+                                            1e3 * check.rms_restarted_m, again.planes, r.rough.planes));
+    r.rough = std::move(again);
+    r.T_ins_lidar = r.rough.T_ins_lidar;
+    r.determined = r.rough.outcome.determined;
+    r.stddev = r.rough.outcome.stddev;
+    rig.lidars[l].determined_alone = r.rough.outcome.determined;
+  }
+}
+
 std::vector<std::uint64_t> voxel_keys(const std::vector<Vec3f>& p_world, double voxel_m) {
   std::vector<std::uint64_t> keys;
   keys.reserve(p_world.size());
@@ -88,9 +165,10 @@ std::vector<std::vector<double>> overlap_matrix(const std::vector<FrameStore>& s
   return overlap;
 }
 
-// Connected components of "overlaps at least min_overlap" (every LiDAR alone when disabled).
+// Connected components of "overlaps at least min_overlap" (every LiDAR alone when disabled); a
+// LiDAR the map check moved is tied to its reference: its start came from that map.
 std::vector<std::vector<std::size_t>> overlap_groups(const std::vector<std::vector<double>>& overlap,
-                                                     const JointConfig& joint) {
+                                                     const JointConfig& joint, const RigResult& rig) {
   const std::size_t n = overlap.size();
   std::vector<std::size_t> root(n);
   std::iota(root.begin(), root.end(), std::size_t{0});
@@ -101,6 +179,12 @@ std::vector<std::vector<std::size_t>> overlap_groups(const std::vector<std::vect
   for (std::size_t a = 0; a < n && joint.enabled; ++a)
     for (std::size_t b = a + 1; b < n; ++b)
       if (overlap[a][b] >= joint.min_overlap) root[find(b)] = find(a);
+  for (std::size_t l = 0; l < n && joint.enabled; ++l) {
+    const RigMapCheck& check = rig.lidars[l].map_check;
+    if (!check.restarted && !check.map_start) continue;
+    for (std::size_t r = 0; r < n; ++r)
+      if (rig.lidars[r].name == check.reference) root[find(l)] = find(r);
+  }
   std::vector<std::vector<std::size_t>> groups;
   std::vector<std::size_t> group_of(n, n);
   for (std::size_t l = 0; l < n; ++l) {
@@ -115,14 +199,8 @@ std::vector<std::vector<std::size_t>> overlap_groups(const std::vector<std::vect
 }
 
 // The member whose tz anchors a joint group's heights, whose ground the others' is measured
-// against: the one whose stage 1 found the most planes (a dense LiDAR that sees much, and
-// calibrated: a wrong extrinsic blurs planes away, where it would grow an occupied-voxel count).
-std::size_t tz_anchor(const std::vector<std::size_t>& members, const RigResult& rig) {
-  std::size_t best = members.front();
-  for (std::size_t l : members)
-    if (rig.lidars[l].result.rough.planes > rig.lidars[best].result.rough.planes) best = l;
-  return best;
-}
+// against: the one whose stage 1 found the most planes.
+std::size_t tz_anchor(const std::vector<std::size_t>& members, const RigResult& rig) { return most_planes(members, rig); }
 
 bool relative_tz(const std::vector<std::size_t>& members, const PipelineConfig& config) {
   return members.size() > 1 && config.refine.joint.relative_tz && !config.refine.estimate_tz;
@@ -209,18 +287,24 @@ std::vector<JointRefineResult> refine_groups(const std::vector<FrameStore>& stor
     const std::string step = groups[g].size() > 1 ? "joint refine" : rig.lidars[groups[g].front()].name + ": refine";
     const auto report = [&](double f) { if (progress) progress(step, f); };
     // The lever-arm check assumes stage 1 within a few centimetres; a LiDAR that stage 1 could
-    // not determine alone starts further out: one unchecked joint pass first, then the checked
-    // one from there (which also re-finds the planes on a map that is already sharp).
+    // not determine alone starts further out: unchecked joint passes first (each re-finds the
+    // planes on a sharper map; from 0.1 deg and 3 cm off a weak LiDAR needed three), then the
+    // checked one from there.
     bool weak = false;
     for (std::size_t l : groups[g]) weak = weak || !rig.lidars[l].result.rough.outcome.ok();
-    if (weak && groups[g].size() > 1) {
+    for (int pass = 0; weak && groups[g].size() > 1 && pass < config.refine.joint.weak_passes; ++pass) {
       const JointRefineResult first = refine_joint(inputs.back(), config.refine, report);
-      if (first.outcome.ok()) {
-        for (std::size_t k = 0; k < groups[g].size(); ++k) {
-          inputs.back()[k].T_ins_lidar_start = first.lidars[k].T_ins_lidar;
-          inputs.back()[k].time_offset_start_s = first.lidars[k].time_offset_s;
-        }
+      if (!first.outcome.ok()) break;
+      double moved_deg = 0.0, moved_m = 0.0;
+      for (std::size_t k = 0; k < groups[g].size(); ++k) {
+        RefineLidar& in = inputs.back()[k];
+        const Iso3& T = first.lidars[k].T_ins_lidar;
+        moved_deg = std::max(moved_deg, so3_log(T.linear() * in.T_ins_lidar_start.linear().transpose()).norm() * kDegPerRad);
+        moved_m = std::max(moved_m, (T.translation() - in.T_ins_lidar_start.translation()).norm());
+        in.T_ins_lidar_start = T;
+        in.time_offset_start_s = first.lidars[k].time_offset_s;
       }
+      if (moved_deg < 1e-3 && moved_m < 1e-4) break;
     }
     out.push_back(refine_joint_checked(inputs.back(), max_speed_mps, config.refine, report, warnings));
     const JointRefineResult& joint = out.back();
@@ -583,11 +667,12 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
   rig.lidars.resize(stores.size());
   for (std::size_t l = 0; l < stores.size(); ++l) rig.lidars[l].name = names[l];
   const std::vector<FrameGroups> rough_groups = start_all(stores, config, progress, rig);
+  check_against_reference(stores, rough_groups, config, progress, rig);
 
   // Which LiDARs share one map: measured on the stage-1 maps.
   if (progress) progress("overlap", 0.0);
   rig.overlap = overlap_matrix(stores, rig, config.refine.joint);
-  const std::vector<std::vector<std::size_t>> groups = overlap_groups(rig.overlap, config.refine.joint);
+  const std::vector<std::vector<std::size_t>> groups = overlap_groups(rig.overlap, config.refine.joint, rig);
   describe_groups(groups, rig);
   if (progress) progress("overlap", 1.0);
 

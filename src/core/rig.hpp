@@ -13,6 +13,19 @@
 
 namespace insalign {
 
+/// A LiDAR's stage 1 checked against the reference LiDAR's map (JointConfig::map_check).
+struct RigMapCheck {
+  std::string reference;  ///< the LiDAR whose map it was registered to; empty: not checked
+  bool converged = false;  ///< the registration found enough of the map (false: they share too little)
+  Iso3 T_ins_lidar_map = Iso3::Identity();  ///< the extrinsic that fits the map best (its tz: stage 1's)
+  double moved_rot_deg = 0.0;  ///< the map's extrinsic against stage 1's: rotation...
+  double moved_xy_m = 0.0;     ///< ...and x, y
+  double rms_before_m = 0.0, rms_after_m = 0.0;  ///< the sweeps' point-to-plane RMS on the map at stage 1's / the map's
+  double rms_restarted_m = 0.0;  ///< ...and at stage 1 run again from the map's (0: not run)
+  bool restarted = false;      ///< stage 1 was run again from the map's extrinsic and that was kept
+  bool map_start = false;      ///< stage 1 (not determined alone) went back: stage 2 starts from the map's
+};
+
 /// What the rig run adds to one LiDAR's CalibrationResult.
 struct RigLidar {
   std::string name;
@@ -20,6 +33,7 @@ struct RigLidar {
   std::size_t group = 0;           ///< LiDARs with the same group were refined in one map
   std::vector<std::string> joint_with;  ///< the other LiDARs of its group (empty: refined alone)
   std::string joint_note;          ///< "refined jointly with ..." or "overlaps no other LiDAR: refined alone"
+  RigMapCheck map_check;
   /// Per DOF: determined by stage 1 alone (what a single-LiDAR run would say), and by the rig.
   std::array<bool, 6> determined_alone{};
   /// Stage 2's formal stddev (m, rad), marginal of the joint covariance (before any widening).

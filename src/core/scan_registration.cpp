@@ -23,35 +23,51 @@ struct CloudAdaptor {
 using KdTree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, CloudAdaptor>,
                                                    CloudAdaptor, 3, std::uint32_t>;
 
+}  // namespace
 
-// Normal of each target point from its k nearest neighbours; zero where the patch is not planar.
-std::vector<Vec3> target_normals(const std::vector<Vec3>& target, const KdTree& tree, const ScanRegistrationConfig& config) {
-  std::vector<Vec3> normals(target.size(), Vec3::Zero());
-  const int k = std::max(config.normal_neighbours, 3);
+struct PlaneTarget::Tree {
+  explicit Tree(const std::vector<Vec3>& points) : adaptor{&points}, index(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10)) {}
+  CloudAdaptor adaptor;
+  KdTree index;
+};
+
+PlaneTarget::PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m)
+    : points_(std::move(points)), normals_(points_.size(), Vec3::Zero()), tree_(std::make_unique<Tree>(points_)) {
+  if (points_.empty()) return;
+  const std::size_t k = static_cast<std::size_t>(std::max(normal_neighbours, 3));
   std::vector<std::uint32_t> idx(k);
   std::vector<double> d2(k);
-  for (std::size_t i = 0; i < target.size(); ++i) {
-    const std::size_t found = tree.knnSearch(target[i].data(), k, idx.data(), d2.data());
+  for (std::size_t i = 0; i < points_.size(); ++i) {
+    const std::size_t found = tree_->index.knnSearch(points_[i].data(), k, idx.data(), d2.data());
     if (found < 3) continue;
     Vec3 mean = Vec3::Zero();
-    for (std::size_t j = 0; j < found; ++j) mean += target[idx[j]];
+    for (std::size_t j = 0; j < found; ++j) mean += points_[idx[j]];
     mean /= static_cast<double>(found);
     Mat3 cov = Mat3::Zero();
     for (std::size_t j = 0; j < found; ++j) {
-      const Vec3 d = target[idx[j]] - mean;
+      const Vec3 d = points_[idx[j]] - mean;
       cov += d * d.transpose();
     }
     cov /= static_cast<double>(found);
     Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
-    if (std::sqrt(std::max(eig.eigenvalues()(0), 0.0)) > config.max_plane_thickness_m) continue;
+    if (std::sqrt(std::max(eig.eigenvalues()(0), 0.0)) > max_plane_thickness_m) continue;
     // A patch that is a line (one dominant direction) has no reliable normal.
     if (eig.eigenvalues()(1) < 1e-4) continue;
-    normals[i] = eig.eigenvectors().col(0);
+    normals_[i] = eig.eigenvectors().col(0);
   }
-  return normals;
 }
 
-}  // namespace
+PlaneTarget::~PlaneTarget() = default;
+PlaneTarget::PlaneTarget(PlaneTarget&&) noexcept = default;
+PlaneTarget& PlaneTarget::operator=(PlaneTarget&&) noexcept = default;
+
+std::optional<std::size_t> PlaneTarget::nearest_planar(const Vec3& p, double gate_m) const {
+  if (points_.empty()) return std::nullopt;
+  std::uint32_t j = 0;
+  double d2 = 0.0;
+  if (tree_->index.knnSearch(p.data(), 1, &j, &d2) < 1 || d2 > gate_m * gate_m || normals_[j].isZero()) return std::nullopt;
+  return j;
+}
 
 PointToPlaneSystem point_to_plane_system(const std::vector<Vec3>& p_source, const std::vector<Vec3>& q_target,
                                          const std::vector<Vec3>& n_target, const Iso3& T_target_source,
@@ -79,9 +95,7 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
   result.T_target_source = T_target_source_init;
   if (target.size() < 10 || source.empty()) return result;
 
-  CloudAdaptor adaptor{&target};
-  KdTree tree(3, adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(10));
-  const std::vector<Vec3> normals = target_normals(target, tree, config);
+  const PlaneTarget planes(target, config.normal_neighbours, config.max_plane_thickness_m);
 
   const int n_iter = std::max(config.max_iterations, 1);
   const double shrink = std::pow(config.max_corr_dist_end_m / config.max_corr_dist_start_m,
@@ -93,13 +107,11 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
     // Associate each source point with its nearest target point inside the gate.
     std::vector<Vec3> p_source, q_target, n_target;
     for (const Vec3& p_s : source) {
-      const Vec3 p = T * p_s;
-      std::uint32_t j = 0;
-      double d2 = 0.0;
-      if (tree.knnSearch(p.data(), 1, &j, &d2) < 1 || d2 > gate_m * gate_m || normals[j].isZero()) continue;
+      const std::optional<std::size_t> j = planes.nearest_planar(T * p_s, gate_m);
+      if (!j) continue;
       p_source.push_back(p_s);
-      q_target.push_back(target[j]);
-      n_target.push_back(normals[j]);
+      q_target.push_back(planes.point(*j));
+      n_target.push_back(planes.normal(*j));
     }
     const PointToPlaneSystem sys = point_to_plane_system(p_source, q_target, n_target, T, config.huber_delta_m);
     const Mat6& H = sys.hessian;

@@ -1,7 +1,10 @@
 // Scan-to-scan registration: point-to-plane ICP between two point clouds (used by the global
-// initialisation to measure LiDAR relative motion for hand-eye calibration).
+// initialisation to measure LiDAR relative motion for hand-eye calibration), and the planar
+// target it associates with (also used to register a LiDAR's sweeps to another's map).
 #pragma once
 
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include "core/geometry.hpp"
@@ -29,6 +32,28 @@ struct ScanRegistrationResult {
   /// Smallest eigenvalue of the 6x6 Gauss-Newton information, normalised by inliers: a small value
   /// flags a degenerate (corridor-like) geometry whose motion along some direction is unknown.
   double min_information = 0.0;
+};
+
+/// A target cloud ready for point-to-plane association: a kd-tree and, per point, the normal of
+/// its k nearest neighbours (none where that patch is thicker than max_plane_thickness_m or a line).
+class PlaneTarget {
+ public:
+  PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m);
+  ~PlaneTarget();
+  PlaneTarget(PlaneTarget&&) noexcept;
+  PlaneTarget& operator=(PlaneTarget&&) noexcept;
+
+  /// The target point nearest to p within gate_m, if it has a normal.
+  std::optional<std::size_t> nearest_planar(const Vec3& p, double gate_m) const;
+  const Vec3& point(std::size_t i) const { return points_[i]; }
+  const Vec3& normal(std::size_t i) const { return normals_[i]; }
+  std::size_t size() const { return points_.size(); }
+
+ private:
+  struct Tree;
+  std::vector<Vec3> points_;
+  std::vector<Vec3> normals_;
+  std::unique_ptr<Tree> tree_;
 };
 
 /// The Gauss-Newton system of point-to-plane residuals r_i = n_i . (T p_i - q_i) for fixed

@@ -31,6 +31,21 @@ json lidar_json(const RigLidar& lidar) {
           {"note", lidar.joint_note}};
 }
 
+// null when the LiDAR was not checked (the reference itself, or the check off).
+json map_check_json(const RigMapCheck& c) {
+  if (c.reference.empty()) return nullptr;
+  return {{"reference", c.reference},
+          {"converged", c.converged},
+          {"T_ins_lidar_map", transform_to_json(c.T_ins_lidar_map)},
+          {"moved_rot_deg", c.moved_rot_deg},
+          {"moved_xy_m", c.moved_xy_m},
+          {"rms_before_m", c.rms_before_m},
+          {"rms_after_m", c.rms_after_m},
+          {"rms_restarted_m", c.rms_restarted_m},
+          {"restarted", c.restarted},
+          {"map_start", c.map_start}};
+}
+
 // A number from the file, null meaning +inf (not determined).
 double number_or_inf(const json& j, const std::string& file, const std::string& key) {
   if (j.is_null()) return std::numeric_limits<double>::infinity();
@@ -91,7 +106,8 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
               {"tz_anchor", lidar.tz_anchor.empty() ? json(nullptr) : json(lidar.tz_anchor)},
               {"tz_relative_stddev_m", finite_or_null(lidar.tz_relative_stddev_m)},
               {"tz_from_anchor", lidar.tz_from_anchor},
-              {"own_stage3_tz_m", finite_or_null(lidar.own_stage3_tz_m)}};
+              {"own_stage3_tz_m", finite_or_null(lidar.own_stage3_tz_m)},
+              {"map_check", map_check_json(lidar.map_check)}};
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
