@@ -87,7 +87,13 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
     check.converged = reg.converged;
     check.moved_rot_deg = so3_log(reg.T_ins_lidar.linear() * r.T_ins_lidar.linear().transpose()).norm() * kDegPerRad;
     check.moved_xy_m = (reg.T_ins_lidar.translation() - r.T_ins_lidar.translation()).head<2>().norm();
-    check.rms_before_m = reg.start.rms_m;
+    // Every fit is taken at the map's tz: tz is stage 3's (stage 1's may be decimetres off) and
+    // would otherwise decide a question about rotation and x, y.
+    const auto at_map_tz = [&](Iso3 T) {
+      T.translation().z() = reg.T_ins_lidar.translation().z();
+      return T;
+    };
+    check.rms_before_m = registration.fit(at_map_tz(r.T_ins_lidar)).rms_m;
     check.rms_after_m = reg.end.rms_m;
     check.T_ins_lidar_map = reg.T_ins_lidar;
     check.T_ins_lidar_map.translation().z() = r.T_ins_lidar.translation().z();  // the map's own tz error moved it
@@ -95,7 +101,7 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
     if (!reg.converged || !far || check.rms_after_m * c.min_fit_gain > check.rms_before_m) continue;
     const Iso3& start = check.T_ins_lidar_map;
     RoughResult again = calibrate_rough(stores[l], rough_groups[l], start, config.rough);
-    check.rms_restarted_m = registration.fit(again.T_ins_lidar).rms_m;
+    check.rms_restarted_m = registration.fit(at_map_tz(again.T_ins_lidar)).rms_m;
     const std::string what = fmt::format(
         "{}its sweeps fit the map of '{}' {:.2f} deg / {:.0f} mm from its stage 1 (point-to-plane RMS {:.1f} mm there, "
         "{:.1f} mm at stage 1)",

@@ -20,7 +20,9 @@ struct RigMapCheck {
   Iso3 T_ins_lidar_map = Iso3::Identity();  ///< the extrinsic that fits the map best (its tz: stage 1's)
   double moved_rot_deg = 0.0;  ///< the map's extrinsic against stage 1's: rotation...
   double moved_xy_m = 0.0;     ///< ...and x, y
-  double rms_before_m = 0.0, rms_after_m = 0.0;  ///< the sweeps' point-to-plane RMS on the map at stage 1's / the map's
+  /// The sweeps' point-to-plane RMS on the map at stage 1's extrinsic / the map's, each at the
+  /// map's tz (tz is stage 3's to find)...
+  double rms_before_m = 0.0, rms_after_m = 0.0;
   double rms_restarted_m = 0.0;  ///< ...and at stage 1 run again from the map's (0: not run)
   bool restarted = false;      ///< stage 1 was run again from the map's extrinsic and that was kept
   bool map_start = false;      ///< stage 1 (not determined alone) went back: stage 2 starts from the map's
