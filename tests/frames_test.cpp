@@ -1,6 +1,7 @@
 #include "core/frames.hpp"
 
 #include "core/frame_store.hpp"
+#include "core/refine.hpp"
 
 #include <gtest/gtest.h>
 
@@ -64,6 +65,22 @@ TEST(CheckSample, TakesTheDecodedFramesWhenThereAreEnough) {
   EXPECT_LE(spread.front(), 3u);
   EXPECT_GE(spread.back(), 97u);
   EXPECT_EQ(store.frames_decoded(), used.size());
+}
+
+// Stage 2 takes its slices' centres whatever is decoded: frames pulled toward stage 1's groups
+// cost yaw accuracy (bench/RESULTS.md, paper_tables before and after).
+TEST(RefineFrames, DoNotFollowTheDecodedFrames) {
+  const Dataset data = straight_dataset();
+  const FrameStore store(data, SweepFilter{});
+  RefineConfig config;
+  config.max_frames = 10;
+  config.min_motion_m = 0.1;
+  const std::vector<std::size_t> fresh = refine_frames(store, config, 0.0, 0.0);
+  ASSERT_EQ(fresh.size(), 10u);
+  std::vector<std::size_t> near;
+  for (std::size_t i : fresh) near.push_back(i + 2);
+  store.load(near);
+  EXPECT_EQ(refine_frames(store, config, 0.0, 0.0), fresh);
 }
 
 }  // namespace
