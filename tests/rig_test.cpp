@@ -317,11 +317,14 @@ TEST(Rig, OutputsRoundTrip) {
     const RigLidar& lidar = run.result.lidars[i];
     const auto j = nlohmann::json::parse(io::read_file(out / lidar.name / "extrinsic.json"));
     EXPECT_EQ(j["rig"]["tz_anchor"].is_null(), lidar.tz_anchor.empty()) << lidar.name;
-    if (!lidar.tz_anchor.empty()) EXPECT_EQ(j["rig"]["tz_anchor"].get<std::string>(), lidar.tz_anchor);
+    if (!lidar.tz_anchor.empty()) {
+      EXPECT_EQ(j["rig"]["tz_anchor"].get<std::string>(), lidar.tz_anchor);
+    }
     EXPECT_EQ(j["rig"]["tz_from_anchor"].get<bool>(), lidar.tz_from_anchor);
     EXPECT_EQ(j["rig"]["map_check"].is_null(), lidar.map_check.reference.empty()) << lidar.name;
-    if (!lidar.map_check.reference.empty())
+    if (!lidar.map_check.reference.empty()) {
       EXPECT_EQ(j["rig"]["map_check"]["map_start"].get<bool>(), lidar.map_check.map_start) << lidar.name;
+    }
   }
   const std::string urdf = io::read_file(out / "rig.urdf");
   EXPECT_NE(urdf.find("<joint name=\"ins_to_top\""), std::string::npos);

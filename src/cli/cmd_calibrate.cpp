@@ -65,6 +65,9 @@ int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const
 
   run.format_files = io::write_all_formats(out_dir, result.T_ins_lidar);  // calib_imu_to_velo.txt among them
   io::write_opencalib_extrinsic(out_dir / "gnss-to-lidar-extrinsic.json", result.T_ins_lidar);
+  // The stages are done: only the report's frames stay decoded (the report's maps and all of the
+  // stages' sweeps together were the run's peak memory on long drives).
+  store.forget(o.no_report ? std::vector<std::size_t>{} : io::report_frames(store, result));
   if (!o.no_report) {
     bar.update("report", 0.0);
     io::write_report(out_dir, io::report_data(result, store, run, config, [&](double f) { bar.update("report", f); }));

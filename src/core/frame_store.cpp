@@ -4,6 +4,10 @@
 
 #include <algorithm>
 
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
+
 namespace insalign {
 namespace {
 
@@ -53,15 +57,33 @@ bool FrameStore::excluded(double t0_s, double t1_s) const {
 
 const Sweep& FrameStore::reduced(std::size_t index) const {
   Slot& slot = cache_->slots[index];
-  std::call_once(slot.once, [&] {
+  if (slot.done.load(std::memory_order_acquire)) return *slot.sweep;
+  const std::lock_guard<std::mutex> lock(slot.decoding);
+  if (!slot.sweep) {  // a loader that throws leaves it empty: the next call tries again
     Sweep sweep = thin_sweep(data_->frames.load(index), base_);
     // No stage reads intensities: a fifth less memory per stored point (12 B position + 4 B time).
     sweep.intensity = {};
     slot.sweep = std::make_unique<const Sweep>(std::move(sweep));
     slot.done.store(true, std::memory_order_release);
     ++cache_->decoded;
-  });
+  }
   return *slot.sweep;
+}
+
+void FrameStore::forget(const std::vector<std::size_t>& keep) const {
+  std::vector<char> kept(data_->frames.frames.size(), 0);
+  for (std::size_t i : keep) kept.at(i) = 1;
+  for (std::size_t i = 0; i < kept.size(); ++i) {
+    Slot& slot = cache_->slots[i];
+    if (kept[i] || !slot.done.load(std::memory_order_acquire)) continue;
+    slot.done.store(false, std::memory_order_release);
+    slot.sweep.reset();
+  }
+#ifdef __GLIBC__
+  // glibc keeps freed heap pages mapped (sweeps of ~1 MB fall under its adaptive mmap threshold):
+  // hand them back now, or the next step's peak stacks on top of them.
+  malloc_trim(0);
+#endif
 }
 
 void FrameStore::load(const std::vector<std::size_t>& indices) const {

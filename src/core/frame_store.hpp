@@ -97,6 +97,12 @@ class FrameStore {
   /// `filter` applied to the stored copies of the given frames, in parallel, then the mask.
   std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const;
 
+  /// Drops every decoded sweep but those of `keep` (readers decode them again if they ask): a
+  /// step whose frames no later step takes gives its memory back. Not safe while another thread
+  /// reads this store or a copy of it, nor with a reference from reduced() still held: call it
+  /// between steps.
+  void forget(const std::vector<std::size_t>& keep = {}) const;
+
   std::size_t frames_decoded() const { return cache_->decoded.load(); }
   /// Whether frame `index` is already decoded (readers that may pick any frame of a slice of the
   /// drive pick a decoded one: core/frames.hpp spread_over_motion).
@@ -104,9 +110,9 @@ class FrameStore {
 
  private:
   struct Slot {
-    std::once_flag once;
+    std::mutex decoding;
     std::unique_ptr<const Sweep> sweep;
-    std::atomic<bool> done{false};
+    std::atomic<bool> done{false};  ///< sweep is set (read without the lock)
   };
   struct Cache {
     explicit Cache(std::size_t n) : slots(new Slot[n]) {}

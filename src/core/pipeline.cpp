@@ -115,6 +115,8 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
   // 1. Start: from the data, or the given initial guess checked against the data.
   progress("init", 0.0);
   r.init = initialise_extrinsic(store, data.T_ins_lidar_init, config.init);
+  // Its frames are not the stages' (the checks sample the stages' frames): their memory back.
+  store.forget();
   progress("init", 1.0);
   stop_if_undetermined(r.init.outcome);
   if (r.init.source == InitSource::kDataOverridesInit) r.warnings.push_back(r.init.explanation);

@@ -80,16 +80,16 @@ bool fit_plane(std::span<const Vec3f> points, std::span<const std::uint32_t> ind
 
 std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeatureConfig& config) {
   const double inv = 1.0 / config.root_voxel_m;
-  // Sort point indices by root voxel so that the output order does not depend on hashing.
+  // Sort point indices by root voxel so that the output order does not depend on hashing. 16 B per
+  // point (the cell is recomputed from a range's first point): stage 1's whole-drive windows hold
+  // millions of points, and this array is part of its peak memory.
   struct Keyed {
     std::uint64_t key;
     std::uint32_t index;
-    VoxelCell voxel;
   };
   std::vector<Keyed> keyed(points.size());
   tbb::parallel_for(std::size_t{0}, points.size(), [&](std::size_t i) {
-    const VoxelCell k = voxel_cell(points[i], inv);
-    keyed[i] = {voxel_key(k), static_cast<std::uint32_t>(i), k};
+    keyed[i] = {voxel_key(points[i], inv), static_cast<std::uint32_t>(i)};
   });
   tbb::parallel_sort(keyed.begin(), keyed.end(), [](const Keyed& a, const Keyed& b) {
     return a.key < b.key || (a.key == b.key && a.index < b.index);
@@ -106,7 +106,7 @@ std::vector<Plane> extract_planes(std::span<const Vec3f> points, const PlaneFeat
     const auto [b, e] = ranges[r];
     std::vector<std::uint32_t> indices(e - b);
     for (std::size_t i = b; i < e; ++i) indices[i - b] = keyed[i].index;
-    const VoxelCell& k = keyed[b].voxel;
+    const VoxelCell k = voxel_cell(points[keyed[b].index], inv);
     const Vec3 corner = Vec3(static_cast<double>(k.x), static_cast<double>(k.y), static_cast<double>(k.z)) *
                         config.root_voxel_m;
     split_recursive(points, std::move(indices), corner, config.root_voxel_m, 0, config, per_root[r]);

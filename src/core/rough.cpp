@@ -200,29 +200,30 @@ Accum evaluate(const Problem& problem, const Iso3& T_ins_lidar, double robust_sc
 void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std::vector<Vec3f>>& p_lidar,
                 const Problem& placed, const Iso3& T_ins_lidar, const PlaneFeatureConfig& plane_config,
                 std::size_t min_frames, Problem& problem) {
+  // The window's points frame after frame; begin[n]: the first point of frames[n] (no per-point
+  // frame and index arrays: a whole-drive window has millions of points).
+  std::vector<std::size_t> begin;
+  std::size_t total = 0;
+  for (std::uint32_t f : frames) begin.push_back(total), total += p_lidar[f].size();
   std::vector<Vec3f> p_world;
-  std::vector<std::uint32_t> frame_of;
-  std::vector<std::uint32_t> index_in_frame;
+  p_world.reserve(total);
   for (std::uint32_t f : frames) {
     const Eigen::Isometry3f T_world_lidar = (placed.T_world_ins[f] * T_ins_lidar).cast<float>();
-    const auto& pts = p_lidar[f];
-    for (std::size_t i = 0; i < pts.size(); ++i) {
-      p_world.push_back(T_world_lidar * pts[i]);
-      frame_of.push_back(f);
-      index_in_frame.push_back(static_cast<std::uint32_t>(i));
-    }
+    for (const Vec3f& p : p_lidar[f]) p_world.push_back(T_world_lidar * p);
   }
-  const std::vector<Plane> planes = extract_planes(p_world, plane_config);
-  for (const Plane& plane : planes) {
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> members;  // (frame, point)
-    members.reserve(plane.point_indices.size());
-    for (std::uint32_t k : plane.point_indices) members.emplace_back(frame_of[k], index_in_frame[k]);
-    std::sort(members.begin(), members.end());
+  std::vector<Plane> planes = extract_planes(p_world, plane_config);
+  p_world = {};
+  for (Plane& plane : planes) {
+    std::vector<std::uint32_t>& members = plane.point_indices;  // ascending: frame by frame
+    if (!std::is_sorted(members.begin(), members.end())) std::sort(members.begin(), members.end());
     std::vector<Cluster> clusters;
-    for (const auto& [f, i] : members) {
+    std::size_t n = 0;  // the window frame of the current member
+    for (std::uint32_t k : members) {
+      while (n + 1 < begin.size() && begin[n + 1] <= k) ++n;
+      const std::uint32_t f = frames[n];
       if (clusters.empty() || clusters.back().frame != f) clusters.push_back({f, Mat4::Zero()});
       Eigen::Vector4d q;
-      q << 1.0, p_lidar[f][i].cast<double>();
+      q << 1.0, p_lidar[f][k - begin[n]].cast<double>();
       clusters.back().M += q * q.transpose();
     }
     if (clusters.size() < min_frames) continue;

@@ -253,6 +253,10 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   return out;
 }
 
+std::vector<std::size_t> report_frames(const FrameStore& store, const CalibrationResult& result) {
+  return spread_frames(store, 60, result.time_offset_s);
+}
+
 ReportData report_data(const CalibrationResult& r, const FrameStore& store, const RunInfo& run,
                        const PipelineConfig& config, const std::function<void(double)>& progress) {
   ReportData report;
@@ -332,7 +336,7 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
   report.output_files.push_back({"gnss-to-lidar-extrinsic.json", "OpenCalib JSON (T_lidar_ins)"});
 
   // Maps: the same frames stitched at each stage's extrinsic, so the thinning is visible.
-  const std::vector<std::size_t> frames = spread_frames(store, 60, r.time_offset_s);
+  const std::vector<std::size_t> frames = report_frames(store, r);
   const std::vector<std::pair<std::string, std::pair<Iso3, double>>> snapshots = {
       {"start", {r.init.T_ins_lidar, 0.0}}, {"stage 1: rough", {r.rough.T_ins_lidar, 0.0}}, {"final", {r.T_ins_lidar, r.time_offset_s}}};
   for (std::size_t i = 0; i < snapshots.size(); ++i) {

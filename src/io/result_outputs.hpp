@@ -33,8 +33,12 @@ nlohmann::json determined_json(const std::array<bool, 6>& determined);
 
 nlohmann::json result_to_json(const CalibrationResult& result, const RunInfo& run);
 
-/// Tables from the result and the maps of the same frames at each stage's extrinsic (stitched
-/// from the store: nothing is decoded again). Warning limits come from `config`.
+/// The frames the report's maps are stitched from (60 spread over the drive, decoded ones
+/// preferred): what the store must keep for the report once the stages are done.
+std::vector<std::size_t> report_frames(const FrameStore& store, const CalibrationResult& result);
+
+/// Tables from the result and the maps of report_frames at each stage's extrinsic (stitched from
+/// the store). Warning limits come from `config`.
 ReportData report_data(const CalibrationResult& result, const FrameStore& store, const RunInfo& run,
                        const PipelineConfig& config, const std::function<void(double)>& progress = {});
 
