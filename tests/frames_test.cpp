@@ -83,5 +83,31 @@ TEST(RefineFrames, DoNotFollowTheDecodedFrames) {
   EXPECT_EQ(refine_frames(store, config, 0.0, 0.0), fresh);
 }
 
+// forget() drops what a step no longer needs, keeps what it is told to, and a forgotten frame
+// decodes again, the same, when a later reader asks for it.
+TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
+  Dataset data = straight_dataset();
+  auto load = data.frames.load;
+  data.frames.load = [load](std::size_t i) {
+    Sweep s = load(i);
+    for (std::size_t k = 0; k <= i % 5; ++k) s.p_lidar.emplace_back(float(i), float(k), 1.0f);
+    return s;
+  };
+  const FrameStore store(data, SweepFilter{});
+  store.load({3, 4, 7});
+  const Sweep before = store.reduced(7);
+  store.forget({4});
+  EXPECT_FALSE(store.is_decoded(3));
+  EXPECT_TRUE(store.is_decoded(4));
+  EXPECT_FALSE(store.is_decoded(7));
+  EXPECT_EQ(store.frames_decoded(), 3u);
+  const Sweep& again = store.reduced(7);  // decoded again: counted again
+  EXPECT_EQ(store.frames_decoded(), 4u);
+  ASSERT_EQ(again.size(), before.size());
+  for (std::size_t k = 0; k < again.size(); ++k) EXPECT_EQ(again.p_lidar[k], before.p_lidar[k]);
+  store.forget();
+  for (std::size_t i : {3, 4, 7}) EXPECT_FALSE(store.is_decoded(i)) << i;
+}
+
 }  // namespace
 }  // namespace insalign
