@@ -54,6 +54,7 @@ struct SeedRun {
   double worst_sigma = 0.0;         // LiDAR-to-LiDAR error / stated stddev, worst DOF and pair
   std::string worst_pair;           // which pair and DOF, its error and stddev
   std::vector<double> own_z;        // per LiDAR |tz error| had it kept its own stage 3 (NaN: not replaced)
+  std::string map_check;            // per LiDAR: how far the map check moved it and what it did
   double loop_m = 0.0, loop_deg = 0.0;
   double rig_cold_s = 0, rig_warm_s = 0, roof_cold_s = 0, roof_warm_s = 0;
   double rig_warm_cpu_s = 0, roof_warm_cpu_s = 0;
@@ -129,6 +130,11 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, const Options& o)
     run.joint.push_back(error_vec(rig.lidars[l].result.T_ins_lidar, world->lidars[l].T_ins_lidar_true));
     run.own_z.push_back(std::abs(rig.lidars[l].own_stage3_tz_m - world->lidars[l].T_ins_lidar_true.translation().z()));
     if (rig.lidars[l].joint_with.empty()) run.notes.push_back(names[l] + ": " + rig.lidars[l].joint_note);
+    const RigMapCheck& m = rig.lidars[l].map_check;
+    if (!m.reference.empty())
+      run.map_check += fmt::format(" {} {:.3f} deg {:.1f} mm, RMS {:.1f} -> {:.1f} mm{};", names[l], m.moved_rot_deg,
+                                   1e3 * m.moved_xy_m, 1e3 * m.rms_before_m, 1e3 * m.rms_after_m,
+                                   m.restarted ? " restarted" : (m.map_start ? " map-start" : ""));
   }
   check_pairs(rig, *world, run);
 
@@ -263,6 +269,7 @@ int main(int argc, char** argv) {
         fmt::print("  own stage-3 |tz error| (shared stage 3 replaced it; nan: not replaced): {:.2f} {:.2f} {:.2f} {:.2f} mm\n",
                    1e3 * r.own_z[0], 1e3 * r.own_z[1], 1e3 * r.own_z[2], 1e3 * r.own_z[3]);
         fmt::print("  worst pair {:.2f} sigma: {}\n", r.worst_sigma, r.worst_pair);
+        fmt::print("  map check (stage 1 to the reference's map; restarted / map-start: it acted):{}\n", r.map_check);
         std::fflush(stdout);
       } catch (const std::exception& e) {
         fmt::print("{} seed {}: FAILED: {}\n", s, seed, e.what());
