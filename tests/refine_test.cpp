@@ -2,11 +2,14 @@
 // ray-cast from its true pose at each point's own instant, exact INS poses on the INS clock.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <random>
 
+#include "core/deskew.hpp"
 #include "core/stitch.hpp"
+#include "core/voxel_grid.hpp"
 #include "test_world.hpp"
 #include "core/occupancy.hpp"
 #include "core/refine.hpp"
@@ -65,6 +68,29 @@ RefineResult refine(const testing::TestDrive& drive, const Iso3& start, double o
   const FrameStore store = testing::store_of(drive.data);
   const double margin = c.estimate_time_offset ? c.time_offset_range_s : 0.0;
   return refine_extrinsic(store, refine_frames(store, c, offset, margin), start, offset, c);
+}
+
+// The stitched map (batches, a voxel set split by key over threads) is the serial one: every
+// frame placed, then the first point of each voxel in frame order.
+TEST(StitchMap, EqualsPlacingEverythingThenDownsamplingOnce) {
+  const testing::TestDrive drive = make_drive(1, 20.0, 0.0);
+  const FrameStore store = testing::store_of(drive.data);
+  const std::vector<std::size_t> frames = spread_frames(store, 40);
+  std::vector<Vec3f> all;
+  for (std::size_t i : frames) {
+    const Sweep& sweep = store.reduced(i);
+    if (!sweep_covered(store.poses(), sweep, 0.0)) continue;
+    const std::vector<Vec3f> p = sweep_to_world(sweep, store.poses(), drive.T_ins_lidar_true, PlaceOptions{});
+    all.insert(all.end(), p.begin(), p.end());
+  }
+  for (double voxel : {0.05, 0.2}) {
+    const std::vector<Vec3f> reference = voxel_downsample(all, voxel);
+    const std::vector<Vec3f> map = stitch_map(store, frames, drive.T_ins_lidar_true, 0.0, voxel);
+    ASSERT_GT(reference.size(), 1000u);
+    ASSERT_EQ(map.size(), reference.size()) << voxel;
+    EXPECT_TRUE(std::equal(map.begin(), map.end(), reference.begin())) << voxel;
+  }
+  EXPECT_EQ(stitch_map(store, frames, drive.T_ins_lidar_true, 0.0, 0.0).size(), all.size());
 }
 
 TEST(Refine, OccupancyIsLowerAtTheTrueExtrinsic) {

@@ -18,14 +18,21 @@ std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::si
                               double time_offset_s, double voxel_m) {
   // Placed a batch at a time (in parallel) and downsampled as they come, first point per voxel
   // in frame order: the same map as placing everything and downsampling once, without holding
-  // every placed point (the report stitches three maps of ~3M points each).
+  // every placed point (the report stitches three maps of ~3M points each). The voxel set is split
+  // by key into parts, each scanned in point order by its own thread: the same first points as
+  // one serial pass (which was most of the report's time).
   constexpr std::size_t kBatch = 16;
+  constexpr int kPartBits = 4;
+  const auto part_of = [](std::uint64_t key) { return (key * 0xD6E8FEB86659FD93ull) >> (64 - kPartBits); };
   PlaceOptions options;
   options.time_offset_s = time_offset_s;
   const double inv = voxel_m > 0.0 ? 1.0 / voxel_m : 0.0;
-  VoxelKeySet seen;
+  std::vector<VoxelKeySet> seen(std::size_t{1} << kPartBits);
   std::vector<Vec3f> p_world;
   std::vector<std::vector<Vec3f>> placed(std::min(kBatch, frames.size()));
+  std::vector<Vec3f> batch;
+  std::vector<std::uint64_t> keys;
+  std::vector<char> keep;
   for (std::size_t first = 0; first < frames.size(); first += kBatch) {
     const std::size_t n = std::min(kBatch, frames.size() - first);
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
@@ -34,9 +41,21 @@ std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::si
       if (sweep_covered(store.poses(), sweep, time_offset_s))
         placed[k] = sweep_to_world(sweep, store.poses(), T_ins_lidar, options);
     });
-    for (std::size_t k = 0; k < n; ++k)
-      for (const Vec3f& p : placed[k])
-        if (voxel_m <= 0.0 || seen.insert(voxel_key(p, inv))) p_world.push_back(p);
+    batch.clear();
+    for (std::size_t k = 0; k < n; ++k) batch.insert(batch.end(), placed[k].begin(), placed[k].end());
+    if (voxel_m <= 0.0) {
+      p_world.insert(p_world.end(), batch.begin(), batch.end());
+      continue;
+    }
+    keys.resize(batch.size());
+    tbb::parallel_for(std::size_t{0}, batch.size(), [&](std::size_t i) { keys[i] = voxel_key(batch[i], inv); });
+    keep.assign(batch.size(), 0);
+    tbb::parallel_for(std::size_t{0}, seen.size(), [&](std::size_t part) {
+      for (std::size_t i = 0; i < keys.size(); ++i)
+        if (part_of(keys[i]) == part && seen[part].insert(keys[i])) keep[i] = 1;
+    });
+    for (std::size_t i = 0; i < batch.size(); ++i)
+      if (keep[i]) p_world.push_back(batch[i]);
   }
   return p_world;
 }
