@@ -98,7 +98,8 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s = 0.0, do
 /// Positions (into `frames`) of up to n frames at the centres of n equal slices of the motion
 /// measure between positions first and last (inclusive; default: all), without repeats. A slice
 /// whose centre frame is not decoded yet takes its decoded frame nearest the centre if it has one:
-/// the steps after stage 1 then share sweeps instead of decoding new ones.
+/// the report and the rig checks then share sweeps instead of decoding new ones. A caller that
+/// needs the exact centres clears `frames.decoded` first (stage 2: refine_frames).
 std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first = 0,
                                             std::size_t last = static_cast<std::size_t>(-1));
 
