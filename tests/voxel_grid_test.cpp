@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <random>
+#include <unordered_map>
+
 namespace insalign {
 namespace {
 
@@ -26,6 +29,33 @@ TEST(VoxelGrid, DownsampleKeepsTheFirstPointPerVoxelInInputOrder) {
   const std::vector<Vec3f> kept = voxel_downsample(pts, 0.25);
   ASSERT_EQ(kept.size(), 3u);
   EXPECT_EQ(kept[1], pts[2]);
+}
+
+// Through many doublings, with keys that collide in the low bits (neighbouring cells), the flat
+// map holds what std::unordered_map holds.
+TEST(VoxelGrid, KeyMapAgreesWithAnUnorderedMapThroughGrowth) {
+  std::mt19937_64 rng(5);
+  std::uniform_int_distribution<int> cell(-40, 40);
+  VoxelKeyMap<int> flat;  // starts at 16 slots
+  std::unordered_map<std::uint64_t, int> reference;
+  for (int i = 0; i < 20000; ++i) {
+    const std::uint64_t key = voxel_key(VoxelCell{cell(rng), cell(rng), cell(rng) / 8});
+    flat[key] += i % 7;
+    reference[key] += i % 7;
+  }
+  ASSERT_EQ(flat.size(), reference.size());
+  for (const auto& [key, value] : reference) {
+    const int* found = flat.find(key);
+    ASSERT_NE(found, nullptr);
+    EXPECT_EQ(*found, value);
+  }
+  std::size_t visited = 0;
+  flat.for_each([&](std::uint64_t key, int value) {
+    ++visited;
+    EXPECT_EQ(reference.at(key), value);
+  });
+  EXPECT_EQ(visited, reference.size());
+  EXPECT_EQ(flat.find(voxel_key(VoxelCell{1000, 0, 0})), nullptr);
 }
 
 }  // namespace

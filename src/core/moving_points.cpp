@@ -8,7 +8,6 @@
 #include <limits>
 
 #include "core/deskew.hpp"
-#include "core/voxel_grid.hpp"
 
 namespace insalign {
 namespace {
@@ -26,7 +25,7 @@ std::uint64_t evidence_key(const Vec3f& p, double h_m, double inv_voxel_m) {
 
 // Height above ground + clearance, or NaN when the point is not judged (no ground, too low or high).
 struct HeightAbove {
-  const std::unordered_map<std::uint64_t, float>& ground_z_m;
+  const VoxelKeyMap<float>& ground_z_m;
   const MovingPointsConfig& c;
   double inv_cell_m = 1.0 / c.ground_cell_m;
   mutable std::uint64_t last_key = std::numeric_limits<std::uint64_t>::max();
@@ -35,10 +34,10 @@ struct HeightAbove {
   double operator()(const Vec3f& p) const {
     const std::uint64_t key = ground_key(p, inv_cell_m);
     if (key != last_key) {  // rays step through a cell several times in a row
-      const auto it = ground_z_m.find(key);
+      const float* z = ground_z_m.find(key);
       last_key = key;
-      last_found = it != ground_z_m.end();
-      if (last_found) last_z = it->second;
+      last_found = z != nullptr;
+      if (last_found) last_z = *z;
     }
     if (!last_found) return std::numeric_limits<double>::quiet_NaN();
     const double h = p.z() - last_z - c.ground_clearance_m;
@@ -68,36 +67,45 @@ PlacedSweep place(const Sweep& sweep, const PoseStream& poses, const Iso3& T_ins
 }
 
 // Ground height per cell: a low percentile of the heights of the sample's points in it.
-std::unordered_map<std::uint64_t, float> ground_heights(const std::vector<PlacedSweep>& frames,
-                                                        const MovingPointsConfig& c) {
-  std::unordered_map<std::uint64_t, std::vector<float>> z_of;
+VoxelKeyMap<float> ground_heights(const std::vector<PlacedSweep>& frames, const MovingPointsConfig& c) {
+  std::vector<std::pair<std::uint64_t, float>> key_z;  // sorted by cell: each cell's heights side by side
   const double inv = 1.0 / c.ground_cell_m;
   for (const PlacedSweep& f : frames)
     for (const Vec3f& p : f.p_world)
-      if (p.allFinite()) z_of[ground_key(p, inv)].push_back(p.z());
-  std::unordered_map<std::uint64_t, float> ground;
-  ground.reserve(z_of.size());
-  for (auto& [key, z] : z_of) {
-    const std::size_t k = static_cast<std::size_t>(c.ground_percentile * static_cast<double>(z.size() - 1));
-    std::nth_element(z.begin(), z.begin() + static_cast<std::ptrdiff_t>(k), z.end());
-    ground.emplace(key, z[k]);
+      if (p.allFinite()) key_z.emplace_back(ground_key(p, inv), p.z());
+  std::sort(key_z.begin(), key_z.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  VoxelKeyMap<float> ground;
+  for (auto first = key_z.begin(); first != key_z.end();) {
+    const auto last = std::find_if(first, key_z.end(), [&](const auto& e) { return e.first != first->first; });
+    const auto k = static_cast<std::ptrdiff_t>(c.ground_percentile * static_cast<double>(last - first - 1));
+    std::nth_element(first, first + k, last, [](const auto& a, const auto& b) { return a.second < b.second; });
+    ground[first->first] = (first + k)->second;
+    first = last;
   }
   return ground;
 }
 
 struct FrameEvidence {
-  std::vector<std::uint64_t> hit, free;  // sorted, unique, disjoint
+  std::vector<std::uint64_t> hit, free;  // unique, disjoint, in no particular order
 };
 
 // The voxels a frame's points land in and the voxels its rays cross short of their points.
 FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, const MovingPointsConfig& c) {
   FrameEvidence e;
   const double inv = 1.0 / c.voxel_m;
+  VoxelKeySet hit(f.p_world.size());
+  for (const Vec3f& p : f.p_world) {
+    if (!p.allFinite()) continue;
+    const double h = height(p);
+    if (!std::isfinite(h)) continue;
+    const std::uint64_t key = evidence_key(p, h, inv);
+    if (hit.insert(key)) e.hit.push_back(key);
+  }
+  // Rays near the LiDAR all cross the same few voxels: a set, not a sort of every sample.
+  VoxelKeySet free(8 * f.p_world.size());
   for (std::size_t i = 0; i < f.p_world.size(); ++i) {
     const Vec3f& p = f.p_world[i];
     if (!p.allFinite()) continue;
-    const double h = height(p);
-    if (std::isfinite(h)) e.hit.push_back(evidence_key(p, h, inv));
     const Vec3f o = f.origin_start + f.fraction[i] * (f.origin_end - f.origin_start);
     const Vec3f ray = p - o;
     const double free_m = ray.norm() - c.end_margin_m;
@@ -105,23 +113,21 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, co
     for (float s = step; s * ray.norm() < free_m; s += step) {
       const Vec3f q = o + s * ray;
       const double hq = height(q);
-      if (std::isfinite(hq)) e.free.push_back(evidence_key(q, hq, inv));
+      if (!std::isfinite(hq)) continue;
+      const std::uint64_t key = evidence_key(q, hq, inv);
+      if (!hit.contains(key) && free.insert(key)) e.free.push_back(key);
     }
   }
-  for (auto* v : {&e.hit, &e.free}) {
-    std::sort(v->begin(), v->end());
-    v->erase(std::unique(v->begin(), v->end()), v->end());
-  }
-  std::vector<std::uint64_t> free_only;
-  std::set_difference(e.free.begin(), e.free.end(), e.hit.begin(), e.hit.end(), std::back_inserter(free_only));
-  e.free = std::move(free_only);
   return e;
 }
 
-std::unordered_map<std::uint64_t, MovingPoints::Counts> count_evidence(const std::vector<PlacedSweep>& frames,
-                                                                       const HeightAbove& height_proto,
-                                                                       const MovingPointsConfig& c) {
-  std::unordered_map<std::uint64_t, MovingPoints::Counts> counts;
+struct Counts {
+  std::uint16_t hit = 0, free = 0;  // sample frames
+};
+
+VoxelKeyMap<Counts> count_evidence(const std::vector<PlacedSweep>& frames, const HeightAbove& height_proto,
+                                   const MovingPointsConfig& c) {
+  VoxelKeyMap<Counts> counts;
   constexpr std::uint16_t kMax = std::numeric_limits<std::uint16_t>::max();
   for (std::size_t first = 0; first < frames.size(); first += kBatchFrames) {
     const std::size_t n = std::min(kBatchFrames, frames.size() - first);
@@ -144,30 +150,28 @@ std::unordered_map<std::uint64_t, MovingPoints::Counts> count_evidence(const std
   return counts;
 }
 
-bool moving_space(const MovingPoints::Counts& n, const MovingPointsConfig& c) {
+bool moving_space(const Counts& n, const MovingPointsConfig& c) {
   return n.free >= c.min_free_frames && n.hit <= c.max_hit_fraction * (n.hit + n.free);
 }
 
 }  // namespace
 
 MovingPoints::MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double time_offset_s,
-                           const MovingPointsConfig& config, std::unordered_map<std::uint64_t, float> ground_z_m,
-                           std::unordered_map<std::uint64_t, Counts> counts)
+                           const MovingPointsConfig& config, VoxelKeyMap<float> ground_z_m,
+                           VoxelKeySet moving_voxels)
     : poses_(std::move(poses)),
       T_ins_lidar_(T_ins_lidar),
       time_offset_s_(time_offset_s),
       config_(config),
       ground_z_m_(std::move(ground_z_m)),
-      counts_(std::move(counts)) {}
+      moving_voxels_(std::move(moving_voxels)) {}
 
 bool MovingPoints::moving(const Vec3f& p_world) const {
   if (!p_world.allFinite()) return false;
   const HeightAbove height{ground_z_m_, config_};
   const double h = height(p_world);
   if (!std::isfinite(h)) return false;
-  const auto it = counts_.find(evidence_key(p_world, h, 1.0 / config_.voxel_m));
-  if (it == counts_.end()) return false;
-  return moving_space(it->second, config_);
+  return moving_voxels_.contains(evidence_key(p_world, h, 1.0 / config_.voxel_m));
 }
 
 std::vector<char> MovingPoints::keep_world(std::size_t, const std::vector<Vec3f>& p_world) const {
@@ -197,16 +201,17 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
   tbb::parallel_for(std::size_t{0}, sweeps.size(), [&](std::size_t k) {
     placed[k] = place(sweeps[k], store.poses(), T_ins_lidar, time_offset_s, store.sweep_period_s());
   });
-  std::unordered_map<std::uint64_t, float> ground = ground_heights(placed, config);
-  std::unordered_map<std::uint64_t, MovingPoints::Counts> counts =
-      count_evidence(placed, HeightAbove{ground, config}, config);
-  for (const auto& [key, n] : counts) {
-    if (n.free < config.min_free_frames) continue;
+  VoxelKeyMap<float> ground = ground_heights(placed, config);
+  VoxelKeySet moving_voxels;
+  count_evidence(placed, HeightAbove{ground, config}, config).for_each([&](std::uint64_t key, const Counts& n) {
+    if (n.free < config.min_free_frames) return;
     ++result.voxels_judged;
-    result.voxels_moving += n.hit > 0 && moving_space(n, config);
-  }
+    if (!moving_space(n, config)) return;
+    moving_voxels.insert(key);
+    result.voxels_moving += n.hit > 0;
+  });
   auto mask = std::make_shared<const MovingPoints>(store.poses(), T_ins_lidar, time_offset_s, config,
-                                                   std::move(ground), std::move(counts));
+                                                   std::move(ground), std::move(moving_voxels));
   for (const PlacedSweep& f : placed)
     for (const Vec3f& p : f.p_world) {
       result.points_checked += p.allFinite();

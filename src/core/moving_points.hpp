@@ -16,12 +16,12 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
-#include <unordered_map>
 #include <vector>
 
 #include "core/frame_store.hpp"
 #include "core/frames.hpp"
 #include "core/geometry.hpp"
+#include "core/voxel_grid.hpp"
 
 namespace insalign {
 
@@ -72,12 +72,8 @@ struct MovingPointsResult {
 /// those in moving space.
 class MovingPoints : public PointMask {
  public:
-  struct Counts {
-    std::uint16_t hit = 0, free = 0;  ///< sample frames
-  };
   MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double time_offset_s, const MovingPointsConfig& config,
-               std::unordered_map<std::uint64_t, float> ground_z_m,
-               std::unordered_map<std::uint64_t, Counts> counts);
+               VoxelKeyMap<float> ground_z_m, VoxelKeySet moving_voxels);
   std::vector<char> keep(std::size_t index, const Sweep& sweep) const override;
   std::vector<char> keep_world(std::size_t index, const std::vector<Vec3f>& p_world) const override;
   /// Whether a world point lies in moving space.
@@ -88,8 +84,8 @@ class MovingPoints : public PointMask {
   Iso3 T_ins_lidar_;
   double time_offset_s_;
   MovingPointsConfig config_;
-  std::unordered_map<std::uint64_t, float> ground_z_m_;    ///< per ground cell
-  std::unordered_map<std::uint64_t, Counts> counts_;       ///< per evidence voxel
+  VoxelKeyMap<float> ground_z_m_;  ///< per ground cell
+  VoxelKeySet moving_voxels_;       ///< the evidence voxels found moving
 };
 
 /// Builds the mask from a sample of the store's frames placed with an extrinsic near the truth

@@ -42,45 +42,106 @@ inline std::uint64_t voxel_key(const VoxelCell& c) {
 inline std::uint64_t voxel_key(const Vec3f& p_m, double inv_voxel_m) { return voxel_key(voxel_cell(p_m, inv_voxel_m)); }
 inline std::uint64_t voxel_key(const Vec3& p_m, double inv_voxel_m) { return voxel_key(voxel_cell(p_m, inv_voxel_m)); }
 
+namespace detail {
+inline constexpr std::uint64_t kNoVoxelKey = ~std::uint64_t{0};  // no voxel key has all 64 bits set
+/// The slot of `key` in an open-addressing table (a power of two long, under half full): where
+/// it is, or the empty slot where it goes.
+inline std::size_t voxel_slot(const std::vector<std::uint64_t>& table, std::uint64_t key) {
+  // Folded so that every bit of the key reaches the slot: keys differing only in x (bits 42-62)
+  // must not share one (they did, when the slot was taken from the product's bits 20-40).
+  std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
+  h ^= h >> 32;
+  const std::size_t mask = table.size() - 1;
+  std::size_t slot = h & mask;
+  while (table[slot] != kNoVoxelKey && table[slot] != key) slot = (slot + 1) & mask;
+  return slot;
+}
+inline std::size_t voxel_table_size(std::size_t expected) {
+  std::size_t capacity = 16;
+  while (capacity < 2 * expected) capacity <<= 1;
+  return capacity;
+}
+}  // namespace detail
+
 /// A set of voxel keys by open addressing: several times faster than std::unordered_set on the
 /// per-point paths (downsampling, ray casting). Grows by doubling at half load.
 class VoxelKeySet {
  public:
-  explicit VoxelKeySet(std::size_t expected = 0) {
-    std::size_t capacity = 16;
-    while (capacity < 2 * expected) capacity <<= 1;
-    table_.assign(capacity, kEmpty);
-  }
+  explicit VoxelKeySet(std::size_t expected = 0) : table_(detail::voxel_table_size(expected), detail::kNoVoxelKey) {}
   /// true when the key was not in the set yet.
   bool insert(std::uint64_t key) {
-    std::size_t slot = find(key);
+    std::size_t slot = detail::voxel_slot(table_, key);
     if (table_[slot] == key) return false;
     if (2 * (size_ + 1) > table_.size()) {
       grow();
-      slot = find(key);
+      slot = detail::voxel_slot(table_, key);
     }
     table_[slot] = key;
     ++size_;
     return true;
   }
-  bool contains(std::uint64_t key) const { return table_[find(key)] == key; }
+  bool contains(std::uint64_t key) const { return table_[detail::voxel_slot(table_, key)] == key; }
   std::size_t size() const { return size_; }
 
  private:
-  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};  // no voxel key has all 64 bits set
-  std::size_t find(std::uint64_t key) const {
-    const std::size_t mask = table_.size() - 1;
-    std::size_t slot = (key * 0x9E3779B97F4A7C15ull) >> 20 & mask;
-    while (table_[slot] != kEmpty && table_[slot] != key) slot = (slot + 1) & mask;
-    return slot;
-  }
   void grow() {
-    std::vector<std::uint64_t> old(2 * table_.size(), kEmpty);
+    std::vector<std::uint64_t> old(2 * table_.size(), detail::kNoVoxelKey);
     old.swap(table_);
     for (std::uint64_t key : old)
-      if (key != kEmpty) table_[find(key)] = key;
+      if (key != detail::kNoVoxelKey) table_[detail::voxel_slot(table_, key)] = key;
   }
   std::vector<std::uint64_t> table_;
+  std::size_t size_ = 0;
+};
+
+/// A map from voxel keys to small values, by the same open addressing: for maps asked once per
+/// point or ray sample (std::unordered_map's nodes cost a cache miss and an allocation each, and
+/// freeing millions of them took longer than building the moving-points mask's evidence).
+template <class T>
+class VoxelKeyMap {
+ public:
+  explicit VoxelKeyMap(std::size_t expected = 0)
+      : keys_(detail::voxel_table_size(expected), detail::kNoVoxelKey), values_(keys_.size()) {}
+  /// The value of `key`, value-initialised when new.
+  T& operator[](std::uint64_t key) {
+    std::size_t slot = detail::voxel_slot(keys_, key);
+    if (keys_[slot] == key) return values_[slot];
+    if (2 * (size_ + 1) > keys_.size()) {
+      grow();
+      slot = detail::voxel_slot(keys_, key);
+    }
+    keys_[slot] = key;
+    ++size_;
+    return values_[slot];
+  }
+  /// nullptr when absent.
+  const T* find(std::uint64_t key) const {
+    const std::size_t slot = detail::voxel_slot(keys_, key);
+    return keys_[slot] == key ? &values_[slot] : nullptr;
+  }
+  std::size_t size() const { return size_; }
+  /// f(key, value) for every entry, in table order.
+  template <class F>
+  void for_each(F&& f) const {
+    for (std::size_t i = 0; i < keys_.size(); ++i)
+      if (keys_[i] != detail::kNoVoxelKey) f(keys_[i], values_[i]);
+  }
+
+ private:
+  void grow() {
+    std::vector<std::uint64_t> old_keys(2 * keys_.size(), detail::kNoVoxelKey);
+    std::vector<T> old_values(old_keys.size());
+    old_keys.swap(keys_);
+    old_values.swap(values_);
+    for (std::size_t i = 0; i < old_keys.size(); ++i) {
+      if (old_keys[i] == detail::kNoVoxelKey) continue;
+      const std::size_t slot = detail::voxel_slot(keys_, old_keys[i]);
+      keys_[slot] = old_keys[i];
+      values_[slot] = std::move(old_values[i]);
+    }
+  }
+  std::vector<std::uint64_t> keys_;
+  std::vector<T> values_;
   std::size_t size_ = 0;
 };
 
