@@ -91,10 +91,14 @@ void FrameStore::load(const std::vector<std::size_t>& indices) const {
 }
 
 std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const {
+  // The stored copies keep one point per cube of the base edge already: the same edge again
+  // would keep every point, so that pass is skipped (the range and the budget still apply).
+  SweepFilter own = filter;
+  if (own.voxel_m == base_.voxel_m) own.voxel_m = 0.0;
   std::vector<Sweep> out(indices.size());
   tbb::parallel_for(std::size_t{0}, indices.size(),
                     [&](std::size_t k) {
-                      out[k] = thin_sweep(reduced(indices[k]), filter);
+                      out[k] = thin_sweep(reduced(indices[k]), own);
                       if (mask_) out[k] = kept_points(out[k], mask_->keep(indices[k], out[k]));
                     });
   return out;

@@ -24,10 +24,11 @@ std::pair<double, double> dt_range(const Sweep& sweep) {
 Sweep thin_sweep(const Sweep& sweep, const SweepFilter& filter) {
   const float r2_min = static_cast<float>(filter.min_range_m * filter.min_range_m);
   const float r2_max = static_cast<float>(filter.max_range_m * filter.max_range_m);
-  std::vector<std::uint32_t> in_range;
-  in_range.reserve(sweep.size() / 2);
-  std::vector<Vec3f> points;
-  points.reserve(sweep.size() / 2);
+  // Scratch kept per thread: every sweep passes here, and fresh megabytes cost page faults.
+  thread_local std::vector<std::uint32_t> in_range;
+  thread_local std::vector<Vec3f> points;
+  in_range.clear();
+  points.clear();
   for (std::size_t i = 0; i < sweep.size(); ++i) {
     const Vec3f& p = sweep.p_lidar[i];
     const float r2 = p.squaredNorm();

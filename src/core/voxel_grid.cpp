@@ -1,6 +1,7 @@
 #include "core/voxel_grid.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <unordered_map>
@@ -49,10 +50,21 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
     return kept;
   }
   const double inv = 1.0 / voxel_m;
-  if (points.size() >= kParallelPoints) return downsample_in_buckets(points, inv);
-  VoxelKeySet seen(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    if (seen.insert(voxel_key(points[i], inv))) kept.push_back(static_cast<std::uint32_t>(i));
+  // Isolated: a thread waiting inside may not pick up another sweep's thinning, whose per-thread
+  // scratch (thin_sweep's, the set below) this call's caller is still using.
+  if (points.size() >= kParallelPoints)
+    return tbb::this_task_arena::isolate([&] { return downsample_in_buckets(points, inv); });
+  thread_local VoxelKeySet seen;  // every sweep of a run passes here, several times
+  seen.clear(points.size());
+  constexpr std::size_t kAhead = 16;  // keys hashed this far ahead, their slots prefetched
+  std::uint64_t keys[kAhead];
+  const std::size_t n = points.size();
+  for (std::size_t i = 0; i < std::min(n, kAhead); ++i) seen.prefetch(keys[i] = voxel_key(points[i], inv));
+  for (std::size_t i = 0; i < n; ++i) {
+    const std::uint64_t key = keys[i % kAhead];
+    if (i + kAhead < n) seen.prefetch(keys[i % kAhead] = voxel_key(points[i + kAhead], inv));
+    if (seen.insert(key)) kept.push_back(static_cast<std::uint32_t>(i));
+  }
   return kept;
 }
 

@@ -2,6 +2,7 @@
 // and downsampling to one point per cell.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <span>
@@ -46,13 +47,17 @@ namespace detail {
 inline constexpr std::uint64_t kNoVoxelKey = ~std::uint64_t{0};  // no voxel key has all 64 bits set
 /// The slot of `key` in an open-addressing table (a power of two long, under half full): where
 /// it is, or the empty slot where it goes.
-inline std::size_t voxel_slot(const std::vector<std::uint64_t>& table, std::uint64_t key) {
+/// Where probing for `key` starts in a table of `size` slots (a power of two).
+inline std::size_t voxel_home(std::size_t size, std::uint64_t key) {
   // Folded so that every bit of the key reaches the slot: keys differing only in x (bits 42-62)
   // must not share one (they did, when the slot was taken from the product's bits 20-40).
   std::uint64_t h = key * 0x9E3779B97F4A7C15ull;
   h ^= h >> 32;
+  return h & (size - 1);
+}
+inline std::size_t voxel_slot(const std::vector<std::uint64_t>& table, std::uint64_t key) {
   const std::size_t mask = table.size() - 1;
-  std::size_t slot = h & mask;
+  std::size_t slot = voxel_home(table.size(), key);
   while (table[slot] != kNoVoxelKey && table[slot] != key) slot = (slot + 1) & mask;
   return slot;
 }
@@ -80,7 +85,17 @@ class VoxelKeySet {
     ++size_;
     return true;
   }
+  /// Empties the set for about `expected` keys, keeping its memory when it is large enough (a
+  /// reused set costs no fresh pages: the kernel zeroing them cost as much as the inserts).
+  void clear(std::size_t expected) {
+    const std::size_t size = detail::voxel_table_size(expected);
+    if (table_.size() < size || table_.size() > 4 * size) table_.assign(size, detail::kNoVoxelKey);
+    else std::fill(table_.begin(), table_.end(), detail::kNoVoxelKey);
+    size_ = 0;
+  }
   bool contains(std::uint64_t key) const { return table_[detail::voxel_slot(table_, key)] == key; }
+  /// Starts loading the slot of `key` into the cache (an insert a few keys later finds it there).
+  void prefetch(std::uint64_t key) const { __builtin_prefetch(&table_[detail::voxel_home(table_.size(), key)]); }
   std::size_t size() const { return size_; }
 
  private:
