@@ -177,6 +177,28 @@ TEST(Refine, SimulatedDriveWithTimeOffsetMeetsBounds) {
   EXPECT_LT(r.crispness_after, r.crispness_before);
 }
 
+// The repeatability segments start stage 2 at the full run's time offset without the coarse scan:
+// from there Gauss-Newton lands where the scan from an offset of 0 leads (the scan only brings a far
+// start within reach).
+TEST(Refine, AStartAtTheFoundOffsetNeedsNoScan) {
+  const double offset = 0.031;
+  const testing::TestDrive drive = make_drive(5, 25.0, offset, 16.0);
+  const Iso3 start = perturbed(drive.T_ins_lidar_true, 9);
+  const RefineConfig scanned = test_config();
+  const RefineResult far = refine(drive, start, 0.0, scanned);
+  RefineConfig unscanned = scanned;
+  unscanned.time_offset_scan_step_s = 0.0;
+  const RefineResult near = refine(drive, start, far.time_offset_s + 0.001, unscanned);
+  const ExtrinsicError d = extrinsic_error(near.T_ins_lidar, far.T_ins_lidar);
+  std::printf("scan from 0: %d evaluations, offset %.3f ms; from the found offset: %d evaluations, offset %.3f ms; "
+              "apart %.2e deg, %.2e m\n", far.evaluations, 1e3 * far.time_offset_s, near.evaluations,
+              1e3 * near.time_offset_s, d.angle_deg, d.dt_norm_m);
+  EXPECT_LT(near.evaluations, far.evaluations);
+  EXPECT_NEAR(near.time_offset_s, far.time_offset_s, 2e-4);
+  EXPECT_LT(d.angle_deg, 1e-3);
+  EXPECT_LT(d.dt_norm_m, 2e-4);
+}
+
 TEST(Refine, StandstillIsUndeterminedNotAnError) {
   const testing::TestDrive drive = make_drive(6, 3.0, 0.0, 24.0, testing::Drive::kStandstill);
   const RefineResult r = refine(drive, drive.T_ins_lidar_true, 0.0, test_config());

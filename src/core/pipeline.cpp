@@ -148,7 +148,8 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
   // biases the horizontal lever arm, see step 3).
   if (config.repeatability.segments > 1) {
     progress("repeatability", 0.0);
-    RepeatabilityInputs in{groups, refine_frames, r.init.T_ins_lidar, r.T_ins_lidar, r.motion.max_speed_mps};
+    RepeatabilityInputs in{groups, refine_frames, r.init.T_ins_lidar, r.T_ins_lidar, r.motion.max_speed_mps,
+                           r.time_offset_s};
     if (r.z.determined()) in.T_ins_lidar_start.translation().z() = r.T_ins_lidar.translation().z();
     r.repeatability = run_repeatability(placed, in, config.rough, config.refine, config.repeatability);
     progress("repeatability", 1.0);

@@ -27,10 +27,12 @@ SegmentFrames slice(const FrameStore& store, const RepeatabilityInputs& in, doub
 }
 
 SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
-                                const RoughConfig& rough_config, const RefineConfig& refine_config, int rough_rounds) {
+                                const RoughConfig& rough_config, const RefineConfig& refine_config,
+                                const RepeatabilityConfig& config) {
   SegmentResult out;
   RoughConfig own = rough_config;
   Iso3 start = in.T_ins_lidar_start;
+  const int rough_rounds = config.rough_rounds;
   if (rough_rounds > 0 && static_cast<std::size_t>(rough_rounds) < own.rounds.size()) {
     own.rounds.erase(own.rounds.begin(), own.rounds.end() - rough_rounds);
     start = in.T_ins_lidar_full;
@@ -42,9 +44,13 @@ SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInpu
   }
   out.T_ins_lidar = rough.T_ins_lidar;
   if (!frames.refine.empty()) {
+    // The offset starts at the full run's: the coarse scan that finds it from afar (a third of a
+    // segment's stage 2) would land there again.
+    RefineConfig refine_own = refine_config;
+    refine_own.time_offset_scan_step_s = 0.0;
     std::string warning;  // the segments' spread is the verdict here
-    const RefineResult refine =
-        refine_checked(store, frames.refine, rough.T_ins_lidar, 0.0, in.max_speed_mps, refine_config, {}, warning);
+    const RefineResult refine = refine_checked(store, frames.refine, rough.T_ins_lidar, in.time_offset_full_s,
+                                               in.max_speed_mps, refine_own, {}, warning);
     if (!refine.outcome.ok()) {
       out.message = refine.outcome.message;
       return out;
@@ -126,7 +132,7 @@ RepeatabilityResult run_repeatability(const FrameStore& store, const Repeatabili
     const double t0 = frames[begin].t_end_s;
     const double t1 = end < frames.size() ? frames[end].t_end_s : frames.back().t_end_s + 1.0;
     const SegmentFrames own = slice(store, inputs, t0, t1);
-    seg = calibrate_segment(store, inputs, own, rough, refine, config.rough_rounds);
+    seg = calibrate_segment(store, inputs, own, rough, refine, config);
     seg.t_begin_s = t0;
     seg.t_end_s = frames[end - 1].t_end_s;
     seg.frames = end - begin;

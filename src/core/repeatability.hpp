@@ -64,6 +64,7 @@ struct RepeatabilityInputs {
   Iso3 T_ins_lidar_start = Iso3::Identity();
   Iso3 T_ins_lidar_full = Iso3::Identity();  ///< the full run's result (rotations are relative to it)
   double max_speed_mps = 0.0;
+  double time_offset_full_s = 0.0;           ///< the full run's time offset
 };
 
 /// The stddev to report from the formal one (m, rad; the stages' least-squares value) and the

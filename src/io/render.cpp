@@ -208,6 +208,10 @@ int Image::text_width(const std::string& s, int scale) {
 
 std::string encode_png(const Image& image) {
   if (image.width <= 0 || image.height <= 0) throw std::runtime_error("encode_png: empty image");
+  // Point maps on a plain background compress best unfiltered: stb's per-row trial of all five
+  // PNG filters took twice the time for files a third larger (a 900x1063 map: 150 -> 75 ms).
+  static const bool unfiltered = (stbi_write_force_png_filter = 0, true);
+  (void)unfiltered;
   std::string out;
   auto sink = [](void* context, void* data, int size) {
     static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));

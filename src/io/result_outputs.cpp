@@ -47,6 +47,9 @@ json init_json(const GlobalInitResult& init) {
             {"source", std::string(enum_name(init.source))},
             {"explanation", init.explanation},
             {"extrinsic", extrinsic_fields(init.T_ins_lidar)},
+            {"frames_loaded", init.frames_loaded},
+            {"seconds", {{"load", init.load_s}, {"coarse_yaw", init.coarse_s}, {"hand_eye", init.hand_eye_s},
+                         {"scores", init.score_s}}},
             {"candidates", json::array()}};
   for (const InitCandidate& c : init.candidates)
     j["candidates"].push_back({{"label", c.label}, {"score", c.score}, {"extrinsic", extrinsic_fields(c.T_ins_lidar)}});
@@ -57,6 +60,7 @@ json rough_json(const RoughResult& r) {
   json rounds = json::array();
   for (const RoundLog& log : r.convergence) {
     rounds.push_back({{"round", log.round}, {"cost", log.cost}, {"planes", log.planes}, {"residuals", log.residuals},
+                      {"windows", log.windows}, {"build_s", log.build_s}, {"solve_s", log.solve_s},
                       {"extrinsic", extrinsic_fields(log.T_ins_lidar)}});
   }
   return {{"outcome", outcome_json(r.outcome)},
@@ -65,6 +69,7 @@ json rough_json(const RoughResult& r) {
           {"cost_after_m2", r.cost_after},
           {"residual_sigma_m", r.residual_sigma_m},
           {"frames_used", r.frames_used},
+          {"load_s", r.load_time_s},
           {"planes", r.planes},
           {"residuals", r.residuals},
           {"tz_estimated", r.tz_estimated},
