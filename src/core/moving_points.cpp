@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -13,6 +14,7 @@ namespace insalign {
 namespace {
 
 constexpr std::size_t kBatchFrames = 16;  // frames whose evidence is held at once before merging
+constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // no evidence key has every bit set
 
 std::uint64_t ground_key(const Vec3f& p, double inv_cell_m) {
   return voxel_key(VoxelCell{floor_int(p.x() * inv_cell_m), floor_int(p.y() * inv_cell_m), 0});
@@ -85,8 +87,14 @@ VoxelKeyMap<float> ground_heights(const std::vector<PlacedSweep>& frames, const 
   return ground;
 }
 
+// Evidence is merged in parallel: keys fall into kShards parts by hash, each part counted on
+// its own (the serial merge of millions of keys held the second core idle).
+constexpr int kShardBits = 4;
+constexpr std::size_t kShards = std::size_t{1} << kShardBits;
+std::size_t shard_of(std::uint64_t key) { return (key * 0x9E3779B97F4A7C15ull) >> (64 - kShardBits); }
+
 struct FrameEvidence {
-  std::vector<std::uint64_t> hit, free;  // unique, disjoint, in no particular order
+  std::array<std::vector<std::uint64_t>, kShards> hit, free;  // unique, disjoint, by shard
 };
 
 // The voxels a frame's points land in and the voxels its rays cross short of their points.
@@ -99,7 +107,7 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, co
     const double h = height(p);
     if (!std::isfinite(h)) continue;
     const std::uint64_t key = evidence_key(p, h, inv);
-    if (hit.insert(key)) e.hit.push_back(key);
+    if (hit.insert(key)) e.hit[shard_of(key)].push_back(key);
   }
   // Rays near the LiDAR all cross the same few voxels: a set, not a sort of every sample.
   VoxelKeySet free(8 * f.p_world.size());
@@ -110,12 +118,15 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, co
     const Vec3f ray = p - o;
     const double free_m = ray.norm() - c.end_margin_m;
     const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
+    std::uint64_t last = kNoKey;  // a ray's samples often stay in one voxel for two steps
     for (float s = step; s * ray.norm() < free_m; s += step) {
       const Vec3f q = o + s * ray;
       const double hq = height(q);
       if (!std::isfinite(hq)) continue;
       const std::uint64_t key = evidence_key(q, hq, inv);
-      if (!hit.contains(key) && free.insert(key)) e.free.push_back(key);
+      if (key == last) continue;
+      last = key;
+      if (!hit.contains(key) && free.insert(key)) e.free[shard_of(key)].push_back(key);
     }
   }
   return e;
@@ -124,11 +135,18 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, co
 struct Counts {
   std::uint16_t hit = 0, free = 0;  // sample frames
 };
+using ShardedCounts = std::array<VoxelKeyMap<Counts>, kShards>;
 
-VoxelKeyMap<Counts> count_evidence(const std::vector<PlacedSweep>& frames, const HeightAbove& height_proto,
-                                   const MovingPointsConfig& c) {
-  VoxelKeyMap<Counts> counts;
+ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const HeightAbove& height_proto,
+                             const MovingPointsConfig& c) {
+  ShardedCounts counts;
   constexpr std::uint16_t kMax = std::numeric_limits<std::uint16_t>::max();
+  const auto add = [&](const std::vector<std::uint64_t>& keys, VoxelKeyMap<Counts>& map, bool hit) {
+    for (std::uint64_t key : keys) {
+      std::uint16_t& n = hit ? map[key].hit : map[key].free;
+      if (n < kMax) ++n;
+    }
+  };
   for (std::size_t first = 0; first < frames.size(); first += kBatchFrames) {
     const std::size_t n = std::min(kBatchFrames, frames.size() - first);
     std::vector<FrameEvidence> batch(n);
@@ -136,16 +154,9 @@ VoxelKeyMap<Counts> count_evidence(const std::vector<PlacedSweep>& frames, const
       const HeightAbove height{height_proto.ground_z_m, c};  // its own lookup cache
       batch[k] = frame_evidence(frames[first + k], height, c);
     });
-    for (const FrameEvidence& e : batch) {
-      for (std::uint64_t key : e.hit) {
-        auto& n_hit = counts[key].hit;
-        if (n_hit < kMax) ++n_hit;
-      }
-      for (std::uint64_t key : e.free) {
-        auto& n_free = counts[key].free;
-        if (n_free < kMax) ++n_free;
-      }
-    }
+    tbb::parallel_for(std::size_t{0}, kShards, [&](std::size_t part) {
+      for (const FrameEvidence& e : batch) add(e.hit[part], counts[part], true), add(e.free[part], counts[part], false);
+    });
   }
   return counts;
 }
@@ -203,20 +214,22 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
   });
   VoxelKeyMap<float> ground = ground_heights(placed, config);
   VoxelKeySet moving_voxels;
-  count_evidence(placed, HeightAbove{ground, config}, config).for_each([&](std::uint64_t key, const Counts& n) {
-    if (n.free < config.min_free_frames) return;
-    ++result.voxels_judged;
-    if (!moving_space(n, config)) return;
-    moving_voxels.insert(key);
-    result.voxels_moving += n.hit > 0;
-  });
+  for (const VoxelKeyMap<Counts>& part : count_evidence(placed, HeightAbove{ground, config}, config)) {
+    part.for_each([&](std::uint64_t key, const Counts& n) {
+      if (n.free < config.min_free_frames) return;
+      ++result.voxels_judged;
+      if (!moving_space(n, config)) return;
+      moving_voxels.insert(key);
+      result.voxels_moving += n.hit > 0;
+    });
+  }
   auto mask = std::make_shared<const MovingPoints>(store.poses(), T_ins_lidar, time_offset_s, config,
                                                    std::move(ground), std::move(moving_voxels));
-  for (const PlacedSweep& f : placed)
-    for (const Vec3f& p : f.p_world) {
-      result.points_checked += p.allFinite();
-      result.points_moving += mask->moving(p);
-    }
+  std::vector<std::pair<std::size_t, std::size_t>> tally(placed.size());  // checked, moving per frame
+  tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
+    for (const Vec3f& p : placed[k].p_world) tally[k].first += p.allFinite(), tally[k].second += mask->moving(p);
+  });
+  for (const auto& [checked, moving] : tally) result.points_checked += checked, result.points_moving += moving;
   result.applied = true;
   result.mask = mask;
   result.frames_used = placed.size();
