@@ -9,6 +9,7 @@
 // Set-up: a figure-8 drive truncated to kDriveS seconds; the frames from kFirstFrame on (the car
 // cruises by then, the start ramp lasts 3 s) are rendered up front and served from memory.
 #include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -20,6 +21,7 @@
 
 #include "core/dataset.hpp"
 #include "core/deskew.hpp"
+#include "core/moving_points.hpp"
 #include "core/occupancy.hpp"
 #include "core/plane_features.hpp"
 #include "core/pipeline.hpp"
@@ -274,6 +276,27 @@ void BM_RefineContinuousStage(benchmark::State& state) {
   state.counters["planes"] = static_cast<double>(r.planes_used);
 }
 BENCHMARK(BM_RefineContinuousStage)->Arg(1)->Arg(4)->ArgName("iterations")->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The moving-point mask (rays of every rendered frame through the evidence voxels) on one thread,
+// so that the time is the work, whatever else the machine runs. Items: ray samples are not
+// counted; points of the sample frames are.
+void BM_MovingPointsMask(benchmark::State& state) {
+  const Drive& d = drive();
+  const FrameStore store = make_frame_store(d.data, PipelineConfig{});
+  std::vector<std::size_t> frames;
+  for (std::size_t i = kFirstFrame; i < d.data.frames.frames.size(); ++i) frames.push_back(i);
+  store.load(frames);
+  const tbb::global_control one_thread(tbb::global_control::max_allowed_parallelism, 1);
+  MovingPointsConfig config;
+  MovingPointsResult r;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(find_moving_points(store, d.T_ins_lidar(), 0.0, config, r));
+  }
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations()) * static_cast<std::int64_t>(r.points_checked));
+  state.counters["frames"] = static_cast<double>(r.frames_used);
+  state.counters["voxels_judged"] = static_cast<double>(r.voxels_judged);
+}
+BENCHMARK(BM_MovingPointsMask)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
 }  // namespace insalign

@@ -1,12 +1,24 @@
 #include "cli/progress.hpp"
 
 #include <fmt/format.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
 
 namespace insalign::cli {
+namespace {
+
+// CPU seconds of the whole process so far (every thread, user and system).
+double process_cpu_s() {
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto seconds = [](const timeval& t) { return static_cast<double>(t.tv_sec) + 1e-6 * t.tv_usec; };
+  return seconds(usage.ru_utime) + seconds(usage.ru_stime);
+}
+
+}  // namespace
 
 ProgressBar::ProgressBar(Verbosity verbosity, std::FILE* out)
     : ProgressBar(verbosity, out, ::isatty(::fileno(out)) != 0) {}
@@ -37,6 +49,7 @@ void ProgressBar::update(std::string_view step, double fraction) {
     finish_locked();
     step_ = std::string(step);
     step_start_ = now;
+    step_start_cpu_s_ = process_cpu_s();
     last_draw_ = now - std::chrono::seconds(1);
     next_verbose_decile_ = 1;
     last_log_ = now;
@@ -73,7 +86,10 @@ void ProgressBar::finish() {
 void ProgressBar::finish_locked() {
   if (step_.empty() || verbosity_ == Verbosity::kQuiet) return;
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - step_start_).count();
-  const std::string line = fmt::format("{:<10} done in {}", step_, format_duration(elapsed));
+  std::string line = fmt::format("{:<10} done in {}", step_, format_duration(elapsed));
+  // Verbose: where the time went, and how much of it used both cores.
+  if (verbosity_ == Verbosity::kVerbose)
+    line += fmt::format(" ({:.2f} s wall, {:.2f} s CPU)", elapsed, process_cpu_s() - step_start_cpu_s_);
   if (tty_) {
     fmt::print(out_, "\r{}\033[K\n", line);
   } else {

@@ -54,6 +54,7 @@ class ProgressBar {
   std::string step_;
   double fraction_ = 0.0;
   std::chrono::steady_clock::time_point step_start_, last_draw_;
+  double step_start_cpu_s_ = 0.0;  ///< process CPU time when the step began
   bool line_open_ = false;  ///< a bar is drawn on the current terminal line
   int next_verbose_decile_ = 1;
   std::chrono::milliseconds log_interval_{5000};

@@ -14,7 +14,6 @@ namespace insalign {
 namespace {
 
 constexpr std::size_t kBatchFrames = 16;  // frames whose evidence is held at once before merging
-constexpr std::uint64_t kNoKey = ~std::uint64_t{0};  // no evidence key has every bit set
 
 std::uint64_t ground_key(const Vec3f& p, double inv_cell_m) {
   return voxel_key(VoxelCell{floor_int(p.x() * inv_cell_m), floor_int(p.y() * inv_cell_m), 0});
@@ -97,20 +96,92 @@ struct FrameEvidence {
   std::array<std::vector<std::uint64_t>, kShards> hit, free;  // unique, disjoint, by shard
 };
 
-// The voxels a frame's points land in and the voxels its rays cross short of their points.
-FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, const MovingPointsConfig& c) {
-  FrameEvidence e;
-  const double inv = 1.0 / c.voxel_m;
-  VoxelKeySet hit(f.p_world.size());
-  for (const Vec3f& p : f.p_world) {
-    if (!p.allFinite()) continue;
-    const double h = height(p);
-    if (!std::isfinite(h)) continue;
-    const std::uint64_t key = evidence_key(p, h, inv);
-    if (hit.insert(key)) e.hit[shard_of(key)].push_back(key);
+// One frame's neighbourhood as dense grids: its evidence voxels as two bitsets (hit, free) and
+// the ground heights of its cells. Every point and ray sample lies in the box of the frame's
+// points and origins, so the tens of millions of samples a mask casts index arrays of a few
+// tens of kilobytes instead of probing hash tables of a megabyte (cache misses were most of the
+// time). Cells outside the box, which rounding alone could produce, go to hash sets: the same
+// evidence either way.
+class FrameCells {
+ public:
+  FrameCells(const PlacedSweep& f, const VoxelKeyMap<float>& ground_z_m, const MovingPointsConfig& c)
+      : c_(c), inv_voxel_(1.0 / c.voxel_m), inv_cell_(1.0 / c.ground_cell_m), ground_z_m_(ground_z_m) {
+    Vec3f lo = f.origin_start.cwiseMin(f.origin_end), hi = f.origin_start.cwiseMax(f.origin_end);
+    for (const Vec3f& p : f.p_world)
+      if (p.allFinite()) lo = lo.cwiseMin(p), hi = hi.cwiseMax(p);
+    x0_ = floor_int(lo.x() * inv_voxel_) - 1, y0_ = floor_int(lo.y() * inv_voxel_) - 1;
+    w_ = floor_int(hi.x() * inv_voxel_) + 2 - x0_, d_ = floor_int(hi.y() * inv_voxel_) + 2 - y0_;
+    h_ = static_cast<std::int64_t>(std::ceil((c.max_height_m - c.ground_clearance_m) * inv_voxel_));
+    const std::size_t bits = static_cast<std::size_t>(std::max<std::int64_t>(w_ * d_ * h_, 1));
+    hit_.assign((bits + 63) / 64, 0), free_.assign((bits + 63) / 64, 0);
+    gx0_ = floor_int(lo.x() * inv_cell_) - 1, gy0_ = floor_int(lo.y() * inv_cell_) - 1;
+    gw_ = floor_int(hi.x() * inv_cell_) + 2 - gx0_, gd_ = floor_int(hi.y() * inv_cell_) + 2 - gy0_;
+    ground_.resize(static_cast<std::size_t>(gw_ * gd_));
+    for (std::int64_t gy = 0; gy < gd_; ++gy)
+      for (std::int64_t gx = 0; gx < gw_; ++gx) {
+        const float* z = ground_z_m.find(voxel_key(VoxelCell{gx0_ + gx, gy0_ + gy, 0}));
+        ground_[static_cast<std::size_t>(gy * gw_ + gx)] = z ? *z : std::numeric_limits<float>::quiet_NaN();
+      }
   }
-  // Rays near the LiDAR all cross the same few voxels: a set, not a sort of every sample.
-  VoxelKeySet free(8 * f.p_world.size());
+
+  /// The evidence voxel of p and its bit in the box (-1 outside it); false when p is not judged
+  /// (no ground under it, too low or too high).
+  bool cell(const Vec3f& p, VoxelCell& v, std::int64_t& bit) const {
+    const float z = ground_at(p);
+    const double h = p.z() - z - c_.ground_clearance_m;  // NaN without ground
+    if (!(h >= 0.0 && h < c_.max_height_m - c_.ground_clearance_m)) return false;
+    v = {floor_int(p.x() * inv_voxel_), floor_int(p.y() * inv_voxel_), floor_int(h * inv_voxel_)};
+    const std::int64_t ix = v.x - x0_, iy = v.y - y0_;
+    bit = ix >= 0 && ix < w_ && iy >= 0 && iy < d_ && v.z < h_ ? (v.z * d_ + iy) * w_ + ix : -1;
+    return true;
+  }
+  /// Marks the voxel hit; true when it was not yet.
+  bool mark_hit(const VoxelCell& v, std::int64_t bit) {
+    return bit >= 0 ? set(hit_, bit) : hit_outside_.insert(voxel_key(v));
+  }
+  /// Marks the voxel free unless it is hit; true when newly free.
+  bool mark_free(const VoxelCell& v, std::int64_t bit) {
+    if (bit >= 0) return !test(hit_, bit) && set(free_, bit);
+    return !hit_outside_.contains(voxel_key(v)) && free_outside_.insert(voxel_key(v));
+  }
+
+ private:
+  float ground_at(const Vec3f& p) const {
+    const std::int64_t gx = floor_int(p.x() * inv_cell_), gy = floor_int(p.y() * inv_cell_);
+    if (gx >= gx0_ && gx < gx0_ + gw_ && gy >= gy0_ && gy < gy0_ + gd_)
+      return ground_[static_cast<std::size_t>((gy - gy0_) * gw_ + (gx - gx0_))];
+    const float* z = ground_z_m_.find(voxel_key(VoxelCell{gx, gy, 0}));
+    return z ? *z : std::numeric_limits<float>::quiet_NaN();
+  }
+  static bool test(const std::vector<std::uint64_t>& bits, std::int64_t i) { return (bits[i >> 6] >> (i & 63)) & 1u; }
+  static bool set(std::vector<std::uint64_t>& bits, std::int64_t i) {
+    const std::uint64_t m = std::uint64_t{1} << (i & 63);
+    const bool was = bits[i >> 6] & m;
+    bits[i >> 6] |= m;
+    return !was;
+  }
+  const MovingPointsConfig& c_;
+  double inv_voxel_, inv_cell_;
+  const VoxelKeyMap<float>& ground_z_m_;
+  std::int64_t x0_ = 0, y0_ = 0, w_ = 0, d_ = 0, h_ = 0;  // evidence voxels of the box
+  std::int64_t gx0_ = 0, gy0_ = 0, gw_ = 0, gd_ = 0;      // ground cells of the box
+  std::vector<std::uint64_t> hit_, free_;
+  std::vector<float> ground_;
+  VoxelKeySet hit_outside_, free_outside_;
+};
+
+// The voxels a frame's points land in and the voxels its rays cross short of their points.
+FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& ground_z_m, const MovingPointsConfig& c) {
+  FrameEvidence e;
+  FrameCells cells(f, ground_z_m, c);
+  VoxelCell v;
+  std::int64_t bit = -1;
+  const auto add = [](std::array<std::vector<std::uint64_t>, kShards>& out, const VoxelCell& v) {
+    const std::uint64_t key = voxel_key(v);
+    out[shard_of(key)].push_back(key);
+  };
+  for (const Vec3f& p : f.p_world)
+    if (p.allFinite() && cells.cell(p, v, bit) && cells.mark_hit(v, bit)) add(e.hit, v);
   for (std::size_t i = 0; i < f.p_world.size(); ++i) {
     const Vec3f& p = f.p_world[i];
     if (!p.allFinite()) continue;
@@ -118,16 +189,8 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const HeightAbove& height, co
     const Vec3f ray = p - o;
     const double free_m = ray.norm() - c.end_margin_m;
     const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
-    std::uint64_t last = kNoKey;  // a ray's samples often stay in one voxel for two steps
-    for (float s = step; s * ray.norm() < free_m; s += step) {
-      const Vec3f q = o + s * ray;
-      const double hq = height(q);
-      if (!std::isfinite(hq)) continue;
-      const std::uint64_t key = evidence_key(q, hq, inv);
-      if (key == last) continue;
-      last = key;
-      if (!hit.contains(key) && free.insert(key)) e.free[shard_of(key)].push_back(key);
-    }
+    for (float s = step; s * ray.norm() < free_m; s += step)
+      if (cells.cell(o + s * ray, v, bit) && cells.mark_free(v, bit)) add(e.free, v);
   }
   return e;
 }
@@ -137,7 +200,7 @@ struct Counts {
 };
 using ShardedCounts = std::array<VoxelKeyMap<Counts>, kShards>;
 
-ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const HeightAbove& height_proto,
+ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const VoxelKeyMap<float>& ground_z_m,
                              const MovingPointsConfig& c) {
   ShardedCounts counts;
   constexpr std::uint16_t kMax = std::numeric_limits<std::uint16_t>::max();
@@ -151,8 +214,7 @@ ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const Heigh
     const std::size_t n = std::min(kBatchFrames, frames.size() - first);
     std::vector<FrameEvidence> batch(n);
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-      const HeightAbove height{height_proto.ground_z_m, c};  // its own lookup cache
-      batch[k] = frame_evidence(frames[first + k], height, c);
+      batch[k] = frame_evidence(frames[first + k], ground_z_m, c);
     });
     tbb::parallel_for(std::size_t{0}, kShards, [&](std::size_t part) {
       for (const FrameEvidence& e : batch) add(e.hit[part], counts[part], true), add(e.free[part], counts[part], false);
@@ -214,7 +276,7 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
   });
   VoxelKeyMap<float> ground = ground_heights(placed, config);
   VoxelKeySet moving_voxels;
-  for (const VoxelKeyMap<Counts>& part : count_evidence(placed, HeightAbove{ground, config}, config)) {
+  for (const VoxelKeyMap<Counts>& part : count_evidence(placed, ground, config)) {
     part.for_each([&](std::uint64_t key, const Counts& n) {
       if (n.free < config.min_free_frames) return;
       ++result.voxels_judged;
