@@ -7,7 +7,6 @@
 #include <chrono>
 #include <cmath>
 #include <optional>
-#include <unordered_map>
 
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
@@ -266,13 +265,18 @@ struct Alignment {
 Alignment align_to_map(const PlacedFrame& f, const MapGrid& grid, const TimeBlocks& blocks,
                        const MapResidualConfig& c) {
   const int lo = blocks.of(f.t_s - c.min_time_apart_s), hi = blocks.of(f.t_s + c.min_time_apart_s);
-  std::unordered_map<std::uint64_t, VoxelPlane> planes;
+  // The planes this frame meets, each fitted once: slot[key] is its index in `planes` plus one.
+  VoxelKeyMap<std::uint32_t> slot;
+  std::vector<VoxelPlane> planes;
   const auto plane_at = [&](const Vec3& p) -> const VoxelPlane& {
     const std::uint64_t key = voxel_key(p, 1.0 / c.voxel_m);
-    auto it = planes.find(key);
-    if (it != planes.end()) return it->second;
-    const MapVoxel* v = grid.find(key);
-    return planes.emplace(key, v ? allowed_plane(*v, lo, hi, c) : VoxelPlane{}).first->second;
+    std::uint32_t& k = slot[key];
+    if (k == 0) {
+      const MapVoxel* v = grid.find(key);
+      planes.push_back(v ? allowed_plane(*v, lo, hi, c) : VoxelPlane{});
+      k = static_cast<std::uint32_t>(planes.size());
+    }
+    return planes[k - 1];
   };
   Alignment a;
   const int iterations = std::max(c.iterations, 2);
