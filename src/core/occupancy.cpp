@@ -2,7 +2,6 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -14,30 +13,18 @@
 namespace insalign {
 namespace {
 
-using KeyIndex = std::pair<std::uint64_t, std::uint32_t>;
-
-std::vector<KeyIndex> sorted_keys(const std::vector<Vec3f>& points, double voxel_m) {
-  const double inv = 1.0 / voxel_m;
-  std::vector<KeyIndex> keys(points.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, points.size(), 4096), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i < r.end(); ++i) keys[i] = {voxel_key(points[i], inv), static_cast<std::uint32_t>(i)};
-  });
-  tbb::parallel_sort(keys.begin(), keys.end());
-  return keys;
-}
-
 // Mean and covariance of a set of points, in double around a local origin (float world
 // coordinates of hundreds of metres would lose the millimetres otherwise).
 struct Moments {
   Vec3 mean = Vec3::Zero();
   Mat3 cov = Mat3::Zero();
 };
-Moments moments(const std::vector<Vec3f>& points, const KeyIndex* begin, const KeyIndex* end) {
-  const Vec3 origin = points[begin->second].cast<double>();
+Moments moments(const std::vector<Vec3f>& points, const std::uint32_t* begin, const std::uint32_t* end) {
+  const Vec3 origin = points[*begin].cast<double>();
   Vec3 sum = Vec3::Zero();
   Mat3 sum2 = Mat3::Zero();
-  for (const KeyIndex* it = begin; it != end; ++it) {
-    const Vec3 d = points[it->second].cast<double>() - origin;
+  for (const std::uint32_t* it = begin; it != end; ++it) {
+    const Vec3 d = points[*it].cast<double>() - origin;
     sum += d;
     sum2 += d * d.transpose();
   }
@@ -50,7 +37,7 @@ Moments moments(const std::vector<Vec3f>& points, const KeyIndex* begin, const K
 }
 
 // Fits one voxel (or octant) and recurses into octants when it is not planar.
-void fit_cell(const std::vector<Vec3f>& points, KeyIndex* begin, KeyIndex* end, const Vec3& center,
+void fit_cell(const std::vector<Vec3f>& points, std::uint32_t* begin, std::uint32_t* end, const Vec3& center,
               double size_m, const PlaneThicknessConfig& config, std::uint32_t offset,
               std::vector<LocalPlane>& out) {
   const auto n = end - begin;
@@ -71,15 +58,15 @@ void fit_cell(const std::vector<Vec3f>& points, KeyIndex* begin, KeyIndex* end, 
   const double half = 0.5 * size_m;
   if (half < config.min_voxel_m * (1.0 - 1e-9)) return;
   // Octant of each point relative to the cell centre; group them and fit each.
-  const auto octant = [&](const KeyIndex& k) {
-    const Vec3f& p = points[k.second];
+  const auto octant = [&](std::uint32_t k) {
+    const Vec3f& p = points[k];
     return (p.x() > center.x() ? 1 : 0) | (p.y() > center.y() ? 2 : 0) | (p.z() > center.z() ? 4 : 0);
   };
-  std::sort(begin, end, [&](const KeyIndex& a, const KeyIndex& b) { return octant(a) < octant(b); });
-  KeyIndex* it = begin;
+  std::sort(begin, end, [&](std::uint32_t a, std::uint32_t b) { return octant(a) < octant(b); });
+  std::uint32_t* it = begin;
   while (it != end) {
     const int o = octant(*it);
-    KeyIndex* stop = it;
+    std::uint32_t* stop = it;
     while (stop != end && octant(*stop) == o) ++stop;
     const Vec3 child = center + 0.25 * size_m * Vec3((o & 1) ? 1 : -1, (o & 2) ? 1 : -1, (o & 4) ? 1 : -1);
     fit_cell(points, it, stop, child, half, config, offset + static_cast<std::uint32_t>(it - begin), out);
@@ -111,29 +98,23 @@ double staggered_occupancy(const std::vector<Vec3f>& p_world, double voxel_m) {
 }
 
 LocalPlanes fit_local_planes(const std::vector<Vec3f>& p_world, const PlaneThicknessConfig& config) {
-  std::vector<KeyIndex> keys = sorted_keys(p_world, config.voxel_m);
-  std::vector<std::size_t> run_begin;
-  for (std::size_t i = 0; i < keys.size(); ++i) {
-    if (i == 0 || keys[i].first != keys[i - 1].first) run_begin.push_back(i);
-  }
-  run_begin.push_back(keys.size());
-  const std::size_t runs = run_begin.size() - 1;
+  VoxelGroups groups = group_by_voxel(p_world, config.voxel_m);
+  const std::size_t runs = groups.size();
   std::vector<std::vector<LocalPlane>> per_run(runs);
   const double voxel = config.voxel_m;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, runs, 64), [&](const auto& r) {
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
-      KeyIndex* b = keys.data() + run_begin[k];
-      KeyIndex* e = keys.data() + run_begin[k + 1];
+      std::uint32_t* b = groups.order.data() + groups.begin[k];
+      std::uint32_t* e = groups.order.data() + groups.begin[k + 1];
       if (e - b < config.min_points) continue;
-      const Vec3f& p = p_world[b->second];
+      const Vec3f& p = p_world[*b];
       const Vec3 center((std::floor(p.x() / voxel) + 0.5) * voxel, (std::floor(p.y() / voxel) + 0.5) * voxel,
                         (std::floor(p.z() / voxel) + 0.5) * voxel);
-      fit_cell(p_world, b, e, center, voxel, config, static_cast<std::uint32_t>(run_begin[k]), per_run[k]);
+      fit_cell(p_world, b, e, center, voxel, config, static_cast<std::uint32_t>(groups.begin[k]), per_run[k]);
     }
   });
   LocalPlanes out;
-  out.point_index.resize(keys.size());
-  for (std::size_t i = 0; i < keys.size(); ++i) out.point_index[i] = keys[i].second;
+  out.point_index = std::move(groups.order);
   for (auto& v : per_run) out.planes.insert(out.planes.end(), v.begin(), v.end());
   return out;
 }

@@ -1,6 +1,7 @@
 #include "core/voxel_grid.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -66,6 +67,51 @@ std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> point
     if (seen.insert(key)) kept.push_back(static_cast<std::uint32_t>(i));
   }
   return kept;
+}
+
+VoxelGroups group_by_voxel(std::span<const Vec3f> points, double voxel_m) {
+  VoxelGroups out;
+  const std::size_t n = points.size();
+  out.begin.push_back(0);
+  if (n == 0) return out;
+  const double inv = 1.0 / voxel_m;
+  std::vector<VoxelCell> cells(n);
+  VoxelCell lo = voxel_cell(points[0], inv), hi = lo;
+  for (std::size_t i = 0; i < n; ++i) {
+    const VoxelCell& c = cells[i] = voxel_cell(points[i], inv);
+    lo = {std::min(lo.x, c.x), std::min(lo.y, c.y), std::min(lo.z, c.z)};
+    hi = {std::max(hi.x, c.x), std::max(hi.y, c.y), std::max(hi.z, c.z)};
+  }
+  const std::int64_t w = hi.x - lo.x + 1, d = hi.y - lo.y + 1, h = hi.z - lo.z + 1;
+  const double box = static_cast<double>(w) * static_cast<double>(d) * static_cast<double>(h);
+  out.order.resize(n);
+  if (box <= std::max(4.0 * static_cast<double>(n), 65536.0)) {
+    // A counting sort over the points' box of cells (a map or a window spans a few hundred
+    // metres): x-major, so its order is the key order, and stable, so each group is in index order.
+    const auto dense = [&](const VoxelCell& c) {
+      return static_cast<std::size_t>(((c.x - lo.x) * d + (c.y - lo.y)) * h + (c.z - lo.z));
+    };
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(box) + 1, 0);
+    for (const VoxelCell& c : cells) ++start[dense(c) + 1];
+    for (std::size_t k = 1; k < start.size(); ++k) start[k] += start[k - 1];
+    out.begin.clear();
+    for (std::size_t k = 0; k + 1 < start.size(); ++k)
+      if (start[k + 1] != start[k]) out.begin.push_back(start[k]);
+    out.begin.push_back(n);
+    for (std::size_t i = 0; i < n; ++i) out.order[start[dense(cells[i])]++] = static_cast<std::uint32_t>(i);
+    return out;
+  }
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
+  for (std::size_t i = 0; i < n; ++i) keyed[i] = {voxel_key(cells[i]), static_cast<std::uint32_t>(i)};
+  cells = {};
+  tbb::parallel_sort(keyed.begin(), keyed.end());
+  out.begin.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i == 0 || keyed[i].first != keyed[i - 1].first) out.begin.push_back(i);
+    out.order[i] = keyed[i].second;
+  }
+  out.begin.push_back(n);
+  return out;
 }
 
 std::size_t count_distinct_keys(std::span<const std::uint64_t> keys) {

@@ -171,6 +171,16 @@ std::size_t count_distinct_keys(std::span<const std::uint64_t> keys);
 /// The points of voxel_downsample_indices.
 std::vector<Vec3f> voxel_downsample(std::span<const Vec3f> points, double voxel_m);
 
+/// Point indices grouped by voxel: the groups in key order (x, then y, then z), each group in index
+/// order, exactly as sorting (key, index) pairs would give them. Group k is
+/// order[begin[k] .. begin[k + 1]).
+struct VoxelGroups {
+  std::vector<std::uint32_t> order;
+  std::vector<std::size_t> begin;  ///< one more than the groups
+  std::size_t size() const { return begin.empty() ? 0 : begin.size() - 1; }
+};
+VoxelGroups group_by_voxel(std::span<const Vec3f> points, double voxel_m);
+
 /// One point per occupied voxel: the centroid of its points; deterministic order (first met).
 std::vector<Vec3> voxel_centroids(const std::vector<Vec3>& points, double voxel_m);
 
