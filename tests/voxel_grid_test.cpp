@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <unordered_map>
 
@@ -33,6 +34,31 @@ TEST(VoxelGrid, DownsampleKeepsTheFirstPointPerVoxelInInputOrder) {
 
 // Through many doublings, with keys that collide in the low bits (neighbouring cells), the flat
 // map holds what std::unordered_map holds.
+// Grouping by voxel is sorting (key, index) pairs: on a compact cloud (the counting sort over its
+// box) and on one spread far wider than it has points (the comparison sort).
+TEST(VoxelGrid, GroupsAreSortedKeyIndexPairs) {
+  std::mt19937 rng(7);
+  for (const float spread_m : {30.0f, 30000.0f}) {
+    std::uniform_real_distribution<float> u(-spread_m, spread_m);
+    std::vector<Vec3f> pts(20000);
+    for (Vec3f& p : pts) p = Vec3f(u(rng), u(rng), 0.01f * u(rng));
+    for (std::size_t i = 0; i < 2000; ++i) pts.push_back(pts[i * 7] + Vec3f(0.01f, 0.0f, 0.0f));  // shared voxels
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> sorted;
+    for (std::uint32_t i = 0; i < pts.size(); ++i) sorted.emplace_back(voxel_key(pts[i], 1.0 / 0.5), i);
+    std::sort(sorted.begin(), sorted.end());
+    const VoxelGroups groups = group_by_voxel(pts, 0.5);
+    ASSERT_EQ(groups.order.size(), pts.size());
+    for (std::size_t i = 0; i < pts.size(); ++i) ASSERT_EQ(groups.order[i], sorted[i].second) << spread_m << " " << i;
+    std::size_t runs = 0;
+    for (std::size_t i = 0; i < sorted.size(); ++i) runs += i == 0 || sorted[i].first != sorted[i - 1].first;
+    ASSERT_EQ(groups.size(), runs) << spread_m;
+    for (std::size_t k = 0; k < groups.size(); ++k) {
+      EXPECT_EQ(sorted[groups.begin[k]].first, sorted[groups.begin[k + 1] - 1].first);
+      if (k > 0) EXPECT_NE(sorted[groups.begin[k]].first, sorted[groups.begin[k] - 1].first);
+    }
+  }
+}
+
 TEST(VoxelGrid, KeyMapAgreesWithAnUnorderedMapThroughGrowth) {
   std::mt19937_64 rng(5);
   std::uniform_int_distribution<int> cell(-40, 40);
