@@ -170,6 +170,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   // The checks sample decoded frames: load stage 2's first so that they are among them (stage 2
   // picks them again after the checks, the same ones but for those in a span left out).
   const double margin_s = refine_margin_s(config.refine);
+  progress("screen", 0.0);  // decoding stage 2's frames is part of the checks' cost
   if (config.run_refine) store.load(insalign::refine_frames(status_screened, config.refine, 0.0, margin_s));
   const FrameStore screened = screen_after_stage1(status_screened, config, progress, r);
   if (screened.excluded().size() != status_screened.excluded().size())

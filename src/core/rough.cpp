@@ -411,6 +411,7 @@ RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, 
   auto report = [&](double f) {
     if (progress) progress(f);
   };
+  report(0.0);  // the step starts now: loading its frames is part of it
   RoughResult result;
   result.T_ins_lidar = T_ins_lidar_init;
   auto finish = [&](StageStatus status, std::string message) {
