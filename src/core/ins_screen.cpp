@@ -461,27 +461,39 @@ InsScreenResult screen_with_lidar(const FrameStore& store, const std::vector<std
   return out;
 }
 
-FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig& config, InsScreenResult& out) {
-  if (!config.from_status || store.data().ins_quality.empty()) return store;
-  const std::vector<TimeSpan> spans = status_spans(store.data().ins_quality, config.status, &out.typical_stddev_m);
-  out.spans.insert(out.spans.end(), spans.begin(), spans.end());
+InsScreenResult screen_with_status(const std::vector<InsQuality>& quality, const InsScreenConfig& config) {
+  InsScreenResult out;
+  if (config.from_status && !quality.empty()) out.spans = status_spans(quality, config.status, &out.typical_stddev_m);
+  return out;
+}
+
+InsScreenResult lidar_checks(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
+                             const InsScreenConfig& config) {
+  if (!config.from_lidar) return {};
+  return screen_with_lidar(store, check_sample(store, config.max_frames, time_offset_s), T_ins_lidar, time_offset_s,
+                           config);
+}
+
+InsScreenResult with_lidar_checks(const InsScreenResult& status, InsScreenResult lidar) {
+  lidar.typical_stddev_m = status.typical_stddev_m;
+  std::vector<TimeSpan> spans = status.spans;
+  spans.insert(spans.end(), lidar.spans.begin(), lidar.spans.end());
+  lidar.spans = std::move(spans);
+  return lidar;
+}
+
+FrameStore leave_out_spans(const FrameStore& store, const std::vector<TimeSpan>& spans) {
+  if (spans.empty()) return store;
   std::vector<TimeSpan> excluded = store.excluded();
   excluded.insert(excluded.end(), spans.begin(), spans.end());
   return store.with(store.poses(), std::move(excluded));
 }
 
-FrameStore leave_out_lidar_spans(const FrameStore& store, const Iso3& T_ins_lidar, const InsScreenConfig& config,
-                                 InsScreenResult& out) {
-  if (!config.from_lidar) return store;
-  InsScreenResult lidar = screen_with_lidar(store, check_sample(store, config.max_frames), T_ins_lidar, 0.0, config);
-  lidar.typical_stddev_m = out.typical_stddev_m;
-  std::vector<TimeSpan> spans = out.spans;
-  spans.insert(spans.end(), lidar.spans.begin(), lidar.spans.end());
-  std::vector<TimeSpan> excluded = store.excluded();
-  excluded.insert(excluded.end(), lidar.spans.begin(), lidar.spans.end());
-  out = std::move(lidar);
-  out.spans = std::move(spans);
-  return store.with(store.poses(), std::move(excluded));
+FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig& config, InsScreenResult& out) {
+  const InsScreenResult status = screen_with_status(store.data().ins_quality, config);
+  if (std::isfinite(status.typical_stddev_m)) out.typical_stddev_m = status.typical_stddev_m;
+  out.spans.insert(out.spans.end(), status.spans.begin(), status.spans.end());
+  return leave_out_spans(store, status.spans);
 }
 
 double spans_duration_s(std::vector<TimeSpan> spans) {

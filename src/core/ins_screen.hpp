@@ -159,13 +159,22 @@ std::vector<TimeSpan> status_spans(const std::vector<InsQuality>& quality, const
 InsScreenResult screen_with_lidar(const FrameStore& store, const std::vector<std::size_t>& frames,
                                   const Iso3& T_ins_lidar, double time_offset_s, const InsScreenConfig& config);
 
-/// The store with the spans the INS marks bad itself left out as well (config.from_status and a
-/// source that states its quality); the spans and the typical stated stddev go to `out`.
+/// What the INS says of itself (config.from_status; nothing when off or the source states no
+/// quality): its spans and the typical stated stddev.
+InsScreenResult screen_with_status(const std::vector<InsQuality>& quality, const InsScreenConfig& config);
+/// The LiDAR checks (config.from_lidar; nothing when off) on up to config.max_frames of the store's
+/// frames (check_sample: the decoded ones first) with an extrinsic near the truth.
+InsScreenResult lidar_checks(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
+                             const InsScreenConfig& config);
+/// `status` (screen_with_status) with the LiDAR checks added: their spans after the status spans.
+InsScreenResult with_lidar_checks(const InsScreenResult& status, InsScreenResult lidar);
+
+/// The store with `spans` left out as well. Spans are in INS time: those found on one INS apply to
+/// every LiDAR placed with it.
+FrameStore leave_out_spans(const FrameStore& store, const std::vector<TimeSpan>& spans);
+/// The store with the spans the INS marks bad itself left out as well (screen_with_status on the
+/// store's dataset); the spans and the typical stated stddev go to `out`.
 FrameStore leave_out_status_spans(const FrameStore& store, const InsScreenConfig& config, InsScreenResult& out);
-/// The store with the spans the LiDAR checks find left out as well (config.from_lidar), on up to
-/// config.max_frames of the store's frames; the checks go to `out` (spans appended).
-FrameStore leave_out_lidar_spans(const FrameStore& store, const Iso3& T_ins_lidar, const InsScreenConfig& config,
-                                 InsScreenResult& out);
 
 /// Sum of the lengths of `spans` (merged where they overlap), s.
 double spans_duration_s(std::vector<TimeSpan> spans);

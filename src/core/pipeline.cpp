@@ -66,18 +66,6 @@ void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);
 }
 
-// Bad INS stretches the LiDAR shows and points on moving things, found with stage 1's extrinsic
-// and left out of every later step (the spans the INS marks bad itself are left out before).
-FrameStore screen_after_stage1(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
-                               CalibrationResult& r) {
-  progress("screen", 0.0);
-  FrameStore out = leave_out_lidar_spans(store, r.T_ins_lidar, config.ins_screen, r.ins_screen);
-  if (auto mask = find_moving_points(out, r.T_ins_lidar, 0.0, config.moving, r.moving)) out = out.with_mask(mask);
-  r.excluded = out.excluded();
-  progress("screen", 1.0);
-  return out;
-}
-
 // tz not fixed by stage 3: stage 2 held it where stage 1 left it, and absorbed its error in x and
 // y (and a little in the rotation); their stddev carries tz's uncertainty (stage 1's, when it
 // estimated tz, else the assumed one).
@@ -103,6 +91,21 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   SweepFilter base = finest_of({config.init.filter, config.rough.filter, config.refine.filter});
   base.min_range_m = config.vehicle.body_radius_m;
   return FrameStore(data, base, config.frames);
+}
+
+void load_stage2_frames(const FrameStore& store, const PipelineConfig& config) {
+  if (config.run_refine) store.load(refine_frames(store, config.refine, 0.0, refine_margin_s(config.refine)));
+}
+
+FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
+                               CalibrationResult& r, FrameGroups& groups) {
+  r.ins_screen = with_lidar_checks(r.ins_screen, lidar_checks);
+  FrameStore out = leave_out_spans(store, lidar_checks.spans);
+  if (auto mask = find_moving_points(out, r.T_ins_lidar, r.time_offset_s, config.moving, r.moving))
+    out = out.with_mask(mask);
+  r.excluded = out.excluded();
+  if (out.excluded().size() != store.excluded().size()) groups = rough_frame_groups(out, config.rough);
+  return out;
 }
 
 FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
@@ -167,18 +170,18 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   CalibrationResult r;
   const FrameStore status_screened = leave_out_status_spans(store, config.ins_screen, r.ins_screen);
   FrameGroups groups = run_start(status_screened, config, progress, r);  // steps 0-2
-  // The checks sample decoded frames: load stage 2's first so that they are among them (stage 2
-  // picks them again after the checks, the same ones but for those in a span left out).
-  const double margin_s = refine_margin_s(config.refine);
+  // Bad INS stretches the LiDAR shows and points on moving things, found with stage 1's extrinsic
+  // and left out of every later step (stage 2 picks its frames again after the checks, the same
+  // ones but for those in a span left out).
   progress("screen", 0.0);  // decoding stage 2's frames is part of the checks' cost
-  if (config.run_refine) store.load(insalign::refine_frames(status_screened, config.refine, 0.0, margin_s));
-  const FrameStore screened = screen_after_stage1(status_screened, config, progress, r);
-  if (screened.excluded().size() != status_screened.excluded().size())
-    groups = rough_frame_groups(screened, config.rough);  // the repeatability study's stage 1 leaves them out too
+  load_stage2_frames(status_screened, config);
+  const InsScreenResult checks = lidar_checks(status_screened, r.T_ins_lidar, r.time_offset_s, config.ins_screen);
+  const FrameStore screened = screen_after_stage1(status_screened, checks, config, r, groups);
+  progress("screen", 1.0);
 
   // 3. Stage 2 (with an early stage 3 first).
   const std::vector<std::size_t> refine_frames =
-      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0, margin_s)
+      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0, refine_margin_s(config.refine))
                         : std::vector<std::size_t>{};
   if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
   if (config.run_refine) run_trajectory_correction(screened, config, progress, r);

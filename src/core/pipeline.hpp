@@ -100,6 +100,16 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config);
 /// stage1_may_fail (a rig's joint stage 2 may still determine it: r.rough.outcome says so).
 FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
                       CalibrationResult& r, bool stage1_may_fail = false);
+/// Decodes the frames stage 2 will take (config.run_refine): the checks after stage 1 sample
+/// decoded frames first, so that they check the frames stage 2 uses.
+void load_stage2_frames(const FrameStore& store, const PipelineConfig& config);
+/// After stage 1, the store every later step reads: the spans `lidar_checks` found left out (INS
+/// time: a rig's reference LiDAR's checks serve every LiDAR on the INS) and the points on moving
+/// things masked (config.moving, found with r's stage-1 extrinsic and time offset). r.ins_screen,
+/// r.moving and r.excluded record them; stage 1's `groups` are picked again without the spans
+/// (the repeatability study's stage 1 leaves them out too).
+FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
+                               CalibrationResult& r, FrameGroups& groups);
 /// Steps 4-5 after stage 2: stage 3 on `placed` (the store whose poses the result uses) and the
 /// repeatability study when config.repeatability asks for it.
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,

@@ -37,6 +37,25 @@ PipelineProgress lidar_progress(const PipelineProgress& progress, const std::str
   };
 }
 
+std::vector<std::size_t> all_lidars(std::size_t n) {
+  std::vector<std::size_t> all(n);
+  std::iota(all.begin(), all.end(), std::size_t{0});
+  return all;
+}
+
+// The spans the one INS marks bad itself, found once (every LiDAR's dataset holds that INS's log)
+// and left out of every LiDAR's store before any stage.
+std::vector<FrameStore> status_screened_stores(const std::vector<FrameStore>& stores, const PipelineConfig& config,
+                                               RigResult& rig) {
+  const InsScreenResult status = screen_with_status(stores.front().data().ins_quality, config.ins_screen);
+  std::vector<FrameStore> out;
+  for (std::size_t l = 0; l < stores.size(); ++l) {
+    rig.lidars[l].result.ins_screen = status;
+    out.push_back(leave_out_spans(stores[l], status.spans));
+  }
+  return out;
+}
+
 // Steps 0-2 of every LiDAR alone; a LiDAR whose start cannot be found stops the run by name.
 std::vector<FrameGroups> start_all(const std::vector<FrameStore>& stores, const PipelineConfig& config,
                                    const PipelineProgress& progress, RigResult& rig) {
@@ -70,9 +89,7 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
                              const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
   const MapCheckConfig& c = config.refine.joint.map_check;
   if (!c.enabled || !config.refine.joint.enabled || stores.size() < 2) return;
-  std::vector<std::size_t> all(stores.size());
-  std::iota(all.begin(), all.end(), std::size_t{0});
-  const std::size_t ref = most_planes(all, rig);
+  const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
   const CalibrationResult& rr = rig.lidars[ref].result;
   const std::vector<Vec3f> map = stitch_map(stores[ref], spread_frames(stores[ref], c.map_frames, rr.time_offset_s),
                                             rr.T_ins_lidar, rr.time_offset_s, c.map_voxel_m);
@@ -132,6 +149,25 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
     r.determined = r.rough.outcome.determined;
     r.stddev = r.rough.outcome.stddev;
     rig.lidars[l].determined_alone = r.rough.outcome.determined;
+  }
+}
+
+// After every LiDAR's stage 1 and the map check: the LiDAR checks run once, with the LiDAR whose
+// stage 1 found the most planes (a sparse side LiDAR's registrations and map offsets are weak and
+// noisy), and their spans (INS time) left out of every LiDAR's store; each LiDAR gets its own mask
+// of moving points, found with its own stage 1 (screen_after_stage1, as for one LiDAR).
+void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameGroups>& rough_groups,
+                             const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
+  if (progress) progress("screen", 0.0);
+  for (const FrameStore& store : stores) load_stage2_frames(store, config);
+  const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
+  const CalibrationResult& rr = rig.lidars[ref].result;
+  InsScreenResult checks = lidar_checks(stores[ref], rr.T_ins_lidar, rr.time_offset_s, config.ins_screen);
+  for (TimeSpan& span : checks.spans) span.reason += fmt::format(" (found with LiDAR '{}')", rig.lidars[ref].name);
+  for (std::size_t l = 0; l < stores.size(); ++l) {
+    stores[l] = screen_after_stage1(stores[l], checks, config, rig.lidars[l].result, rough_groups[l]);
+    if (config.ins_screen.from_lidar) rig.lidars[l].ins_checks_by = rig.lidars[ref].name;
+    if (progress) progress("screen", double(l + 1) / double(stores.size()));
   }
 }
 
@@ -672,12 +708,15 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
   RigResult rig;
   rig.lidars.resize(stores.size());
   for (std::size_t l = 0; l < stores.size(); ++l) rig.lidars[l].name = names[l];
-  const std::vector<FrameGroups> rough_groups = start_all(stores, config, progress, rig);
-  check_against_reference(stores, rough_groups, config, progress, rig);
+  // Every step reads the screened stores (sharing the inputs' decoded frames), as run_calibration does.
+  std::vector<FrameStore> screened = status_screened_stores(stores, config, rig);
+  std::vector<FrameGroups> rough_groups = start_all(screened, config, progress, rig);
+  check_against_reference(screened, rough_groups, config, progress, rig);
+  screen_after_stage1_all(screened, rough_groups, config, progress, rig);
 
   // Which LiDARs share one map: measured on the stage-1 maps.
   if (progress) progress("overlap", 0.0);
-  rig.overlap = overlap_matrix(stores, rig, config.refine.joint);
+  rig.overlap = overlap_matrix(screened, rig, config.refine.joint);
   const std::vector<std::vector<std::size_t>> groups = overlap_groups(rig.overlap, config.refine.joint, rig);
   describe_groups(groups, rig);
   if (progress) progress("overlap", 1.0);
@@ -686,14 +725,14 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
   std::vector<JointRefineResult> joints;
   if (config.run_refine) {
     const auto t_joint = std::chrono::steady_clock::now();
-    joints = refine_groups(stores, groups, config, progress, inputs, rig);
+    joints = refine_groups(screened, groups, config, progress, inputs, rig);
     rig.joint_wall_time_s = seconds_since(t_joint);
   }
   if (const std::string why = undetermined_message(rig); !why.empty()) throw UnobservableError(why);
   if (config.trajectory.mode != TrajectoryCorrectionMode::kOff)
     rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
 
-  finish_all(stores, groups, inputs, rough_groups, config, progress, rig);
+  finish_all(screened, groups, inputs, rough_groups, config, progress, rig);
   rig.pairs = lidar_pairs(groups, joints, rig);
   rig.wall_time_s = seconds_since(start);
   for (RigLidar& lidar : rig.lidars) lidar.result.wall_time_s = rig.wall_time_s;

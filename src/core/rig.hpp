@@ -1,4 +1,6 @@
-// Several LiDARs to one INS in one run (a rig): each LiDAR its own start and stage 1, then one
+// Several LiDARs to one INS in one run (a rig): the INS's bad stretches left out of every LiDAR
+// (its status before any stage, the reference LiDAR's checks after stage 1) and each LiDAR's
+// points on moving things masked, as for one LiDAR; each LiDAR its own start and stage 1, then one
 // joint stage 2 over the LiDARs whose maps overlap (all their points in one map, each through its
 // own extrinsic and time offset, so a sparse side LiDAR is tied to the dense roof map), stage 3 per
 // LiDAR, per-DOF verdicts per LiDAR and the LiDAR-to-LiDAR transforms with their uncertainty.
@@ -36,6 +38,10 @@ struct RigLidar {
   std::vector<std::string> joint_with;  ///< the other LiDARs of its group (empty: refined alone)
   std::string joint_note;          ///< "refined jointly with ..." or "overlaps no other LiDAR: refined alone"
   RigMapCheck map_check;
+  /// The LiDAR whose checks after stage 1 found the INS spans left out of every LiDAR (the one
+  /// whose stage 1 found the most planes; empty: ins_screen.from_lidar off). result.ins_screen
+  /// holds its checks.
+  std::string ins_checks_by;
   /// Per DOF: determined by stage 1 alone (what a single-LiDAR run would say), and by the rig.
   std::array<bool, 6> determined_alone{};
   /// Stage 2's formal stddev (m, rad), marginal of the joint covariance (before any widening).

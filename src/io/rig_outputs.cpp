@@ -107,7 +107,8 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
               {"tz_relative_stddev_m", finite_or_null(lidar.tz_relative_stddev_m)},
               {"tz_from_anchor", lidar.tz_from_anchor},
               {"own_stage3_tz_m", finite_or_null(lidar.own_stage3_tz_m)},
-              {"map_check", map_check_json(lidar.map_check)}};
+              {"map_check", map_check_json(lidar.map_check)},
+              {"ins_checks_by", lidar.ins_checks_by.empty() ? json(nullptr) : json(lidar.ins_checks_by)}};
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
