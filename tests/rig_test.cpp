@@ -322,6 +322,9 @@ TEST(Rig, OutputsRoundTrip) {
     }
     EXPECT_EQ(j["rig"]["tz_from_anchor"].get<bool>(), lidar.tz_from_anchor);
     EXPECT_EQ(j["rig"]["map_check"].is_null(), lidar.map_check.reference.empty()) << lidar.name;
+    // The screening: which LiDAR's checks left INS spans out, and this LiDAR's own mask.
+    EXPECT_EQ(j["rig"]["ins_checks_by"].get<std::string>(), "top") << lidar.name;
+    EXPECT_EQ(j["left_out"]["moving_points"]["applied"].get<bool>(), lidar.result.moving.applied) << lidar.name;
     if (!lidar.map_check.reference.empty()) {
       EXPECT_EQ(j["rig"]["map_check"]["map_start"].get<bool>(), lidar.map_check.map_start) << lidar.name;
     }
@@ -332,6 +335,7 @@ TEST(Rig, OutputsRoundTrip) {
   const std::string html = io::read_file(out / "report.html");
   EXPECT_NE(html.find("LiDAR 'left'"), std::string::npos);
   EXPECT_NE(html.find("rig_final_top.png"), std::string::npos);
+  EXPECT_NE(html.find("left out: 0.0 s of INS time in 0 spans (LiDAR checks by &#39;top&#39;)"), std::string::npos);
   EXPECT_THROW(io::parse_rig_json("{\"lidars\": {\"a\": {}}}", "bad.json"), InputError);
   std::filesystem::remove_all(out);
 }

@@ -14,8 +14,28 @@ std::vector<std::size_t> spread_frames(const FrameStore& store, std::size_t n, d
   return out;
 }
 
-std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
-                              double time_offset_s, double voxel_m) {
+namespace {
+
+// One frame placed, its points the mask leaves out (if any) moved to `dropped`.
+void place_frame(const FrameStore& store, std::size_t index, const Iso3& T_ins_lidar, double time_offset_s,
+                 const PointMask* mask, std::vector<Vec3f>& placed, std::vector<Vec3f>& dropped) {
+  placed.clear();
+  dropped.clear();
+  const Sweep& sweep = store.reduced(index);
+  if (!sweep_covered(store.poses(), sweep, time_offset_s)) return;
+  placed = sweep_to_world(sweep, store.poses(), T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
+  if (!mask) return;
+  const std::vector<char> keep = mask->keep(index, sweep);
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < placed.size(); ++i) {
+    if (keep[i]) placed[n++] = placed[i];
+    else dropped.push_back(placed[i]);
+  }
+  placed.resize(n);
+}
+
+SplitMap stitch(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
+                double time_offset_s, double voxel_m, const PointMask* mask) {
   // Placed a batch at a time (in parallel) and downsampled as they come, first point per voxel
   // in frame order: the same map as placing everything and downsampling once, without holding
   // every placed point (the report stitches three maps of ~3M points each). The voxel set is split
@@ -24,25 +44,24 @@ std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::si
   constexpr std::size_t kBatch = 16;
   constexpr int kPartBits = 4;
   const auto part_of = [](std::uint64_t key) { return (key * 0xD6E8FEB86659FD93ull) >> (64 - kPartBits); };
-  PlaceOptions options;
-  options.time_offset_s = time_offset_s;
   const double inv = voxel_m > 0.0 ? 1.0 / voxel_m : 0.0;
   std::vector<VoxelKeySet> seen(std::size_t{1} << kPartBits);
-  std::vector<Vec3f> p_world;
-  std::vector<std::vector<Vec3f>> placed(std::min(kBatch, frames.size()));
+  SplitMap out;
+  std::vector<Vec3f>& p_world = out.kept_world;
+  std::vector<std::vector<Vec3f>> placed(std::min(kBatch, frames.size())), dropped(placed.size());
   std::vector<Vec3f> batch;
   std::vector<std::uint64_t> keys;
   std::vector<char> keep;
   for (std::size_t first = 0; first < frames.size(); first += kBatch) {
     const std::size_t n = std::min(kBatch, frames.size() - first);
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-      const Sweep& sweep = store.reduced(frames[first + k]);
-      placed[k].clear();
-      if (sweep_covered(store.poses(), sweep, time_offset_s))
-        placed[k] = sweep_to_world(sweep, store.poses(), T_ins_lidar, options);
+      place_frame(store, frames[first + k], T_ins_lidar, time_offset_s, mask, placed[k], dropped[k]);
     });
     batch.clear();
-    for (std::size_t k = 0; k < n; ++k) batch.insert(batch.end(), placed[k].begin(), placed[k].end());
+    for (std::size_t k = 0; k < n; ++k) {
+      batch.insert(batch.end(), placed[k].begin(), placed[k].end());
+      out.dropped_world.insert(out.dropped_world.end(), dropped[k].begin(), dropped[k].end());
+    }
     if (voxel_m <= 0.0) {
       p_world.insert(p_world.end(), batch.begin(), batch.end());
       continue;
@@ -57,7 +76,19 @@ std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::si
     for (std::size_t i = 0; i < batch.size(); ++i)
       if (keep[i]) p_world.push_back(batch[i]);
   }
-  return p_world;
+  return out;
+}
+
+}  // namespace
+
+std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
+                              double time_offset_s, double voxel_m) {
+  return stitch(store, frames, T_ins_lidar, time_offset_s, voxel_m, nullptr).kept_world;
+}
+
+SplitMap stitch_map_split(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
+                          double time_offset_s, double voxel_m, const PointMask& mask) {
+  return stitch(store, frames, T_ins_lidar, time_offset_s, voxel_m, &mask);
 }
 
 }  // namespace insalign

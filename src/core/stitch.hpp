@@ -18,4 +18,13 @@ std::vector<std::size_t> spread_frames(const FrameStore& store, std::size_t n, d
 std::vector<Vec3f> stitch_map(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
                               double time_offset_s, double voxel_m = 0.1);
 
+/// stitch_map with the points `mask` leaves out apart (not downsampled). The mask judges each frame
+/// as it places it itself: a moving-point mask built with stage 1's extrinsic still finds its
+/// points in a map placed with the final one (whose tz may be decimetres higher).
+struct SplitMap {
+  std::vector<Vec3f> kept_world, dropped_world;
+};
+SplitMap stitch_map_split(const FrameStore& store, const std::vector<std::size_t>& frames, const Iso3& T_ins_lidar,
+                          double time_offset_s, double voxel_m, const PointMask& mask);
+
 }  // namespace insalign

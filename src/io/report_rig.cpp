@@ -19,6 +19,7 @@ namespace {
 
 constexpr Rgb kPalette[] = {{230, 80, 60}, {50, 120, 220}, {40, 170, 80}, {200, 150, 20}, {150, 70, 190}, {20, 170, 180}};
 Rgb colour_of(std::size_t l) { return kPalette[l % std::size(kPalette)]; }
+constexpr Rgb kMovingColour{255, 0, 255};  // magenta, as in each LiDAR's own report
 std::string css(Rgb c) { return fmt::format("rgb({},{},{})", c.r, c.g, c.b); }
 
 std::string esc(const std::string& s) { return html_escape(s); }
@@ -28,15 +29,19 @@ std::string dof_cell(int i, double v) {
   return fmt::format("{:.4f}", i < 3 ? v : v * kDegPerRad);
 }
 
-// Top view of every LiDAR's map in its colour, one framing for all snapshots.
-Image top_view(const std::vector<std::vector<Vec3f>>& maps, const MapFrame& frame) {
+// Top view of every LiDAR's map in its colour and the points on moving things in magenta, one
+// framing for all snapshots.
+Image top_view(const RigReportMaps& maps, const MapFrame& frame) {
   const double w_m = std::max(frame.max_m.x() - frame.min_m.x(), 1.0), h_m = std::max(frame.max_m.y() - frame.min_m.y(), 1.0);
   const double px_per_m = std::min(900.0 / w_m, 900.0 / h_m);
   Image img(static_cast<int>(w_m * px_per_m) + 1, static_cast<int>(h_m * px_per_m) + 1, Rgb{255, 255, 255});
-  for (std::size_t l = 0; l < maps.size(); ++l)
-    for (const Vec3f& p : maps[l])
+  const auto draw = [&](const std::vector<Vec3f>& points, Rgb colour) {
+    for (const Vec3f& p : points)
       img.blend(static_cast<int>((p.x() - frame.min_m.x()) * px_per_m), static_cast<int>((frame.max_m.y() - p.y()) * px_per_m),
-                colour_of(l), 0.35);
+                colour, 0.35);
+  };
+  for (std::size_t l = 0; l < maps.p_world.size(); ++l) draw(maps.p_world[l], colour_of(l));
+  draw(maps.p_moving_world, kMovingColour);
   img.text(8, 8, fmt::format("{:.0f} m across", w_m), Rgb{0, 0, 0});
   return img;
 }
@@ -129,8 +134,9 @@ std::string map_images(const std::filesystem::path& out_dir, const std::vector<R
   std::string h = "<h2>Combined map, coloured by LiDAR</h2>\n<div class=\"grid\">\n";
   for (const RigReportMaps& m : maps) {
     const std::string rel = "report/rig_" + m.label + "_top.png";
-    write_png(out_dir / rel, top_view(m.p_world, frame));
-    h += figure(rel, m.label + ": top view, one colour per LiDAR");
+    write_png(out_dir / rel, top_view(m, frame));
+    h += figure(rel, m.label + ": top view, one colour per LiDAR" +
+                         (m.p_moving_world.empty() ? "" : "; magenta: moving things, left out"));
   }
   h += "</div>\n<h2>Cross-sections where LiDARs overlap</h2>\n<p>A thin slab edge-on (grid every 10 cm), picked on the "
        "final map where at least two LiDARs have points. With the right extrinsics every LiDAR's surface lies on the others'.</p>\n"
@@ -168,6 +174,7 @@ std::string lidar_section(const RigLidar& lidar) {
                     r.refine->frames_used));
   row("stage 3", r.z.outcome, r.z.outcome.message);
   h += "</table>\n";
+  if (const std::string left_out = left_out_line(lidar); !left_out.empty()) h += "<p>" + esc(left_out) + "</p>\n";
   for (const std::string& w : r.warnings) h += "<p class=\"warn\">warning: " + esc(w) + "</p>\n";
   return h;
 }

@@ -199,12 +199,12 @@ double data_start_s(const FrameStore& store) {
   return frames.empty() ? 0.0 : frames.front().t_end_s;
 }
 
-// The map's points on moving things moved to their own list (drawn in another colour).
-void split_moving(const PointMask& mask, MapSnapshot& map) {
-  const std::vector<char> keep = mask.keep_world(0, map.p_world);
-  std::vector<Vec3f> kept;
-  for (std::size_t i = 0; i < map.p_world.size(); ++i) (keep[i] ? kept : map.p_moving_world).push_back(map.p_world[i]);
-  map.p_world = std::move(kept);
+// A map snapshot; with a mask, the points it leaves out apart (drawn in another colour).
+MapSnapshot map_snapshot(const std::string& label, const FrameStore& store, const std::vector<std::size_t>& frames,
+                         const Iso3& T_ins_lidar, double time_offset_s, const PointMask* mask) {
+  if (!mask) return {label, stitch_map(store, frames, T_ins_lidar, time_offset_s, 0.05), {}};
+  SplitMap split = stitch_map_split(store, frames, T_ins_lidar, time_offset_s, 0.05, *mask);
+  return {label, std::move(split.kept_world), std::move(split.dropped_world)};
 }
 
 // What the stages did not use: the INS spans (and why) and the points on moving things.
@@ -347,9 +347,10 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
   for (std::size_t i = 0; i < snapshots.size(); ++i) {
     if (progress) progress(static_cast<double>(i) / snapshots.size());
     const auto& [T, offset] = snapshots[i].second;
-    report.maps.push_back({snapshots[i].first, stitch_map(store, frames, T, offset, 0.05), {}});
+    const bool final_map = i + 1 == snapshots.size();  // the moving things the stages left out, in magenta
+    report.maps.push_back(map_snapshot(snapshots[i].first, store, frames, T, offset,
+                                       final_map ? r.moving.mask.get() : nullptr));
   }
-  if (r.moving.mask) split_moving(*r.moving.mask, report.maps.back());
   return report;
 }
 

@@ -112,14 +112,21 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
-// The combined map of every LiDAR at its start and at its final extrinsic (the same frames).
+// The combined map of every LiDAR at its start and at its final extrinsic (the same frames, left-out
+// spans included, as in each LiDAR's own report); the final map's points on moving things apart.
 std::vector<RigReportMaps> rig_maps(const RigResult& rig, const std::vector<FrameStore>& stores) {
-  std::vector<RigReportMaps> maps = {{"start", {}}, {"final", {}}};
+  std::vector<RigReportMaps> maps = {{"start", {}, {}}, {"final", {}, {}}};
   for (std::size_t l = 0; l < stores.size(); ++l) {
     const CalibrationResult& r = rig.lidars[l].result;
     const std::vector<std::size_t> frames = spread_frames(stores[l], 60, r.time_offset_s);
     maps[0].p_world.push_back(stitch_map(stores[l], frames, r.init.T_ins_lidar, 0.0, 0.05));
-    maps[1].p_world.push_back(stitch_map(stores[l], frames, r.T_ins_lidar, r.time_offset_s, 0.05));
+    if (!r.moving.mask) {
+      maps[1].p_world.push_back(stitch_map(stores[l], frames, r.T_ins_lidar, r.time_offset_s, 0.05));
+      continue;
+    }
+    SplitMap split = stitch_map_split(stores[l], frames, r.T_ins_lidar, r.time_offset_s, 0.05, *r.moving.mask);
+    maps[1].p_world.push_back(std::move(split.kept_world));
+    maps[1].p_moving_world.insert(maps[1].p_moving_world.end(), split.dropped_world.begin(), split.dropped_world.end());
   }
   return maps;
 }
@@ -206,6 +213,18 @@ std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path
   return files;
 }
 
+std::string left_out_line(const RigLidar& lidar) {
+  const CalibrationResult& r = lidar.result;
+  if (r.excluded.empty() && !r.moving.applied) return "";
+  std::string s = fmt::format("left out: {:.1f} s of INS time in {} span{}", spans_duration_s(r.excluded),
+                              r.excluded.size(), r.excluded.size() == 1 ? "" : "s");
+  if (!lidar.ins_checks_by.empty()) s += " (LiDAR checks by '" + lidar.ins_checks_by + "')";
+  if (r.moving.applied && r.moving.points_checked > 0)
+    s += fmt::format("; points on moving things: {:.2f}% of the sampled points",
+                     100.0 * r.moving.points_moving / r.moving.points_checked);
+  return s;
+}
+
 std::string rig_summary_text(const RigResult& rig, double peak_memory_mb) {
   std::string s = "\nrig: T_ins_lidar per LiDAR (x y z m; roll pitch yaw deg; stddev; '!' = not determined)\n";
   for (const RigLidar& lidar : rig.lidars) {
@@ -219,6 +238,7 @@ std::string rig_summary_text(const RigResult& rig, double peak_memory_mb) {
     if (!lidar.tz_anchor.empty() && lidar.tz_anchor != lidar.name)
       s += fmt::format("    tz: measured relative to '{}' (+- {:.1f} mm){}\n", lidar.tz_anchor, 1e3 * lidar.tz_relative_stddev_m,
                        lidar.tz_from_anchor ? std::string(", the rig's stage 3 applied (median of its LiDARs')") : std::string());
+    if (const std::string left_out = left_out_line(lidar); !left_out.empty()) s += "    " + left_out + "\n";
     for (const std::string& w : r.warnings) s += "    warning: " + w + "\n";
   }
   s += "LiDAR-to-LiDAR T_a_b (x y z m, roll pitch yaw deg) +- stddev\n";

@@ -58,6 +58,10 @@ std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path
                                                      const RigOutputOptions& options,
                                                      const std::function<void(double)>& progress = {});
 
+/// What a LiDAR's steps after stage 1 left out, in one line (empty: nothing was screened); its
+/// own report and extrinsic.json list every span and why.
+std::string left_out_line(const RigLidar& lidar);
+
 /// The terminal summary: per LiDAR its extrinsic, stddevs, verdicts and how it was refined; the
 /// LiDAR-to-LiDAR transforms.
 std::string rig_summary_text(const RigResult& rig, double peak_memory_mb);
@@ -67,6 +71,7 @@ std::string rig_summary_text(const RigResult& rig, double peak_memory_mb);
 struct RigReportMaps {
   std::string label;                           ///< "start", "final"
   std::vector<std::vector<Vec3f>> p_world;     ///< per LiDAR
+  std::vector<Vec3f> p_moving_world;           ///< every LiDAR's points on moving things (left out): magenta
 };
 std::filesystem::path write_rig_report(const std::filesystem::path& out_dir, const RigResult& rig,
                                        const std::vector<RigReportMaps>& maps, const std::string& command_line);
