@@ -8,6 +8,7 @@
 
 #include "core/moving_points.hpp"
 #include "core/pipeline.hpp"
+#include "mover_score.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 
@@ -24,28 +25,6 @@ sim::SimConfig drive(int traffic, int pedestrians) {
   return sc;
 }
 
-struct Score {
-  std::size_t tp = 0, fp = 0, fn = 0, all = 0;
-  double precision() const { return tp / std::max(1.0, static_cast<double>(tp + fp)); }
-  double recall() const { return tp / std::max(1.0, static_cast<double>(tp + fn)); }
-};
-
-// Every 10th frame at its own resolution against the simulator's mover flags.
-Score score(const sim::World& world, const PointMask& mask) {
-  Score s;
-  for (std::size_t k = 0; k < world.frame_count(); k += 10) {
-    std::vector<std::uint8_t> truth;
-    const Sweep sweep = sim::render_sweep(world, k, &truth);
-    const std::vector<char> keep = mask.keep(k, sweep);
-    for (std::size_t i = 0; i < sweep.size(); ++i) {
-      s.tp += truth[i] && !keep[i];
-      s.fp += !truth[i] && !keep[i];
-      s.fn += truth[i] && keep[i];
-      ++s.all;
-    }
-  }
-  return s;
-}
 
 TEST(MovingPoints, StaticStreetIsLeftAlone) {
   const auto world = std::make_shared<const sim::World>(sim::build_world(drive(0, 0)));
@@ -55,7 +34,7 @@ TEST(MovingPoints, StaticStreetIsLeftAlone) {
   MovingPointsResult r;
   const auto mask = find_moving_points(store, world->T_ins_lidar_true, 0.0, config.moving, r);
   ASSERT_TRUE(mask);
-  const Score s = score(*world, *mask);
+  const testing::MoverScore s = testing::mover_score(*world, 0, *mask);
   std::printf("static street: %.2f%% of the points taken for movers\n", 100.0 * s.fp / s.all);
   EXPECT_LT(static_cast<double>(s.fp) / s.all, 0.01) << "static points taken for movers";
 }
@@ -67,7 +46,7 @@ TEST(MovingPoints, TrafficIsMaskedAndTheResultStaysWithinBounds) {
   config.repeatability.segments = 0;
   const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
   ASSERT_TRUE(r.moving.applied && r.moving.mask);
-  const Score s = score(*world, *r.moving.mask);
+  const testing::MoverScore s = testing::mover_score(*world, 0, *r.moving.mask);
   const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   std::printf("movers %.2f%% of points: precision %.3f recall %.3f; |t| %.1f %.1f %.1f mm |rpy| %.4f %.4f %.4f deg\n",
               100.0 * (s.tp + s.fn) / s.all, s.precision(), s.recall(), 1e3 * e.dt_m.x(), 1e3 * e.dt_m.y(),

@@ -15,6 +15,7 @@
 #include "core/stitch.hpp"
 #include "io/read_file.hpp"
 #include "io/rig_outputs.hpp"
+#include "mover_score.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 #include "test_world.hpp"
@@ -124,28 +125,6 @@ TEST(RigScreen, AWrongFixFoundByTheRoofLidarIsLeftOutOfEveryLidar) {
   }
 }
 
-// Scores a LiDAR's mask against the simulator's mover flags on every 10th frame.
-struct Score {
-  std::size_t tp = 0, fp = 0, fn = 0, all = 0;
-  double precision() const { return tp / std::max(1.0, static_cast<double>(tp + fp)); }
-  double recall() const { return tp / std::max(1.0, static_cast<double>(tp + fn)); }
-};
-
-Score score(const sim::World& world, std::size_t lidar, const PointMask& mask) {
-  Score s;
-  for (std::size_t k = 0; k < world.lidars[lidar].frame_times_s.size(); k += 10) {
-    std::vector<std::uint8_t> truth;
-    const Sweep sweep = sim::render_lidar_sweep(world, lidar, k, &truth);
-    const std::vector<char> keep = mask.keep(k, sweep);
-    for (std::size_t i = 0; i < sweep.size(); ++i) {
-      s.tp += truth[i] && !keep[i];
-      s.fp += !truth[i] && !keep[i];
-      s.fn += truth[i] && keep[i];
-      ++s.all;
-    }
-  }
-  return s;
-}
 
 // 20 cars and 30 people: each LiDAR's mask, built with its own stage 1, holds mostly the movers it
 // saw, and both extrinsics stay within bounds.
@@ -161,7 +140,7 @@ TEST(RigScreen, EachLidarMasksTheTrafficItSaw) {
   for (std::size_t l = 0; l < 2; ++l) {
     const CalibrationResult& r = result.lidars[l].result;
     ASSERT_TRUE(r.moving.applied && r.moving.mask) << result.lidars[l].name;
-    const Score s = score(*rig.world, l, *r.moving.mask);
+    const testing::MoverScore s = testing::mover_score(*rig.world, l, *r.moving.mask);
     const ExtrinsicError e = error_of(rig, result, l);
     std::printf("%s: movers %.2f%% of points, %zu of %zu sample points masked: precision %.3f recall %.3f; |t| %.2f %.2f "
                 "mm, %.4f deg\n",
