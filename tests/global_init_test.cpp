@@ -1,5 +1,7 @@
 // Global initialisation: its pieces on synthetic inputs, and the whole on simulated drives.
+#include <cstdio>
 #include <map>
+#include <optional>
 #include <mutex>
 #include <random>
 
@@ -90,8 +92,9 @@ struct SimDrive {
   Dataset data;
 };
 SimDrive sim_drive(std::uint64_t seed, sim::InsAxes axes, sim::TrajectoryKind trajectory = sim::TrajectoryKind::kFigure8,
-                   double duration_s = 30.0) {
+                   double duration_s = 30.0, std::optional<Iso3> T_ins_lidar = std::nullopt) {
   sim::SimConfig config;
+  config.T_ins_lidar = T_ins_lidar;
   config.seed = seed;
   config.ins_axes = axes;
   config.trajectory = trajectory;
@@ -132,6 +135,26 @@ TEST(GlobalInit, NoInitReachesStage1BasinForAnyYawAndInsAxes) {
     EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << "seed " << seed << ": " << res.explanation;
     EXPECT_FALSE(res.explanation.empty());
     EXPECT_GE(res.candidates.size(), 4u);
+  }
+}
+
+// Any mount: a LiDAR hung upside down under a bracket, and one rolled onto its side looking at the
+// kerb. The ground is whichever plane stays put in the LiDAR frame while the car turns, not the
+// one below the LiDAR's own z (that guess ended 180 and 78 deg off, with exit 0).
+TEST(GlobalInit, NoInitFindsUpsideDownAndSidewaysMounts) {
+  const struct { const char* what; Vec3 t_m, rpy_deg; } mounts[] = {
+      {"upside down", {0.8, 0.1, 1.6}, {180.0, 3.0, 40.0}},
+      {"rolled onto its side", {1.0, -0.6, 1.4}, {88.0, 5.0, -100.0}},
+  };
+  for (const auto& m : mounts) {
+    const Iso3 T_true = make_transform(m.t_m, m.rpy_deg);
+    const SimDrive drive = sim_drive(41, sim::InsAxes::kXForward, sim::TrajectoryKind::kFigure8, 30.0, T_true);
+    const GlobalInitResult res = initialise_extrinsic(testing::store_of(drive.data), std::nullopt);
+    const ExtrinsicError err = extrinsic_error(res.T_ins_lidar, T_true);
+    std::printf("%s: %.2f deg, %.3f m horizontally off\n", m.what, err.angle_deg, err.dt_m.head<2>().norm());
+    EXPECT_EQ(res.outcome.status, StageStatus::kOk) << m.what << ": " << res.outcome.message;
+    EXPECT_LT(err.angle_deg, 5.0) << m.what << ": " << res.explanation;
+    EXPECT_LT(err.dt_m.head<2>().norm(), 0.3) << m.what << ": " << res.explanation;
   }
 }
 

@@ -56,7 +56,7 @@ std::map<std::size_t, InitFrame> load_frames(const FrameStore& store, const Driv
     f.index = drive.index[need[k]];
     f.T_world_ins = drive.T_world_ins[need[k]];
     f.sweep = thin_sweep(store.reduced(f.index), config.filter);
-    f.ground = fit_ground_plane(to_vec3(f.sweep.p_lidar), config.ground, static_cast<unsigned>(f.index + 1));
+    f.ground_candidates = ground_candidates(to_vec3(f.sweep.p_lidar), config.ground, static_cast<unsigned>(f.index + 1));
   });
   std::map<std::size_t, InitFrame> out;
   for (std::size_t k = 0; k < need.size(); ++k) out.emplace(need[k], std::move(frames[k]));

@@ -10,7 +10,8 @@ namespace {
 
 double angle_deg(const Vec3& a, const Vec3& b) { return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * kDegPerRad; }
 
-// Least-squares plane through the points within inlier_m of (n, d); false if too few.
+// Least-squares plane through the points within inlier_m of (n, d), turned towards the sensor
+// (d > 0); false if too few.
 bool refit_plane(const std::vector<Vec3>& pts, double inlier_m, Vec3& n, double& d, int& inliers) {
   Vec3 mean = Vec3::Zero();
   int n_in = 0;
@@ -23,22 +24,17 @@ bool refit_plane(const std::vector<Vec3>& pts, double inlier_m, Vec3& n, double&
     if (std::abs(n.dot(p) + d) < inlier_m) cov += (p - mean) * (p - mean).transpose();
   const Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
   n = eig.eigenvectors().col(0);
-  if (n.z() < 0) n = -n;
+  if (n.dot(mean) > 0) n = -n;  // towards the sensor: the origin on the positive side
   d = -n.dot(mean);
   inliers = n_in;
   return true;
 }
 
-}  // namespace
-
-GroundPlane fit_ground_plane(const std::vector<Vec3>& p_lidar, const GroundConfig& config, unsigned seed) {
+// The largest plane of `pts` whose normal (towards the sensor) passes the tilt test and whose
+// distance from the sensor is a mount height.
+GroundPlane largest_plane(const std::vector<Vec3>& pts, const GroundConfig& config, std::mt19937& rng) {
   GroundPlane best;
-  // Candidates: points within 25 m horizontally (the ground nearby is densest and flattest).
-  std::vector<Vec3> pts;
-  for (const Vec3& p : p_lidar)
-    if (p.head<2>().squaredNorm() < 25.0 * 25.0) pts.push_back(p);
   if (pts.size() < 50) return best;
-  std::mt19937 rng(seed);
   // Score on a subsample: RANSAC only needs the inlier fraction.
   std::vector<Vec3> sample;
   const std::size_t stride = std::max<std::size_t>(1, pts.size() / 4000);
@@ -53,10 +49,10 @@ GroundPlane fit_ground_plane(const std::vector<Vec3>& p_lidar, const GroundConfi
     Vec3 n = (b - a).cross(c - a);
     if (n.norm() < 1e-6) continue;
     n.normalize();
-    if (n.z() < 0) n = -n;  // up, in the LiDAR frame (tilt is limited)
+    if (n.dot(a) > 0) n = -n;  // towards the sensor
     if (n.z() < cos_tilt) continue;
-    const double d = -n.dot(a);  // n.p + d = 0; d = height of the origin above the plane
-    if (d < 0.3 || d > 6.0) continue;  // the ground is below the sensor
+    const double d = -n.dot(a);  // n.p + d = 0; d = the origin's distance from the plane
+    if (d < 0.3 || d > 6.0) continue;  // the ground is a mount height away
     int count = 0;
     for (const Vec3& p : sample) count += std::abs(n.dot(p) + d) < config.inlier_m;
     if (count > best_count) best_count = count, n_best = n, d_best = d;
@@ -67,8 +63,68 @@ GroundPlane fit_ground_plane(const std::vector<Vec3>& p_lidar, const GroundConfi
     if (!refit_plane(pts, config.inlier_m, n_best, d_best, best.inliers)) return best;
   best.normal_lidar = n_best;
   best.height_m = d_best;
-  best.valid = d_best > 0.3;
+  best.valid = d_best > 0.3 && n_best.z() >= cos_tilt;
   return best;
+}
+
+// How many frames have a candidate like `g` (normal within 5 deg, height within 0.3 m), and
+// their inliers.
+std::pair<int, long> support(const GroundPlane& g, const std::vector<InitFrame*>& frames) {
+  int n = 0;
+  long inliers = 0;
+  for (const InitFrame* f : frames) {
+    for (const GroundPlane& c : f->ground_candidates) {
+      if (angle_deg(c.normal_lidar, g.normal_lidar) > 5.0 || std::abs(c.height_m - g.height_m) > 0.3) continue;
+      ++n, inliers += c.inliers;
+      break;
+    }
+  }
+  return {n, inliers};
+}
+
+// Each frame's ground: its candidate like the one most frames share (none when it has none).
+void choose_ground(const std::vector<InitFrame*>& frames) {
+  const GroundPlane* best = nullptr;
+  std::pair<int, long> best_support{0, 0};
+  for (const InitFrame* f : frames)
+    for (const GroundPlane& c : f->ground_candidates)
+      if (const auto s = support(c, frames); s > best_support) best_support = s, best = &c;
+  if (!best) return;
+  const GroundPlane chosen = *best;
+  for (InitFrame* f : frames) {
+    f->ground = GroundPlane{};
+    for (const GroundPlane& c : f->ground_candidates)
+      if (angle_deg(c.normal_lidar, chosen.normal_lidar) <= 5.0 && std::abs(c.height_m - chosen.height_m) <= 0.3) {
+        f->ground = c;
+        break;
+      }
+  }
+}
+
+}  // namespace
+
+std::vector<GroundPlane> ground_candidates(const std::vector<Vec3>& p_lidar, const GroundConfig& config,
+                                           unsigned seed) {
+  // Points within 25 m of the sensor (the ground nearby is densest and flattest).
+  std::vector<Vec3> pts;
+  for (const Vec3& p : p_lidar)
+    if (p.squaredNorm() < 25.0 * 25.0) pts.push_back(p);
+  std::mt19937 rng(seed);
+  std::vector<GroundPlane> out;
+  for (int k = 0; k < config.candidates; ++k) {
+    const GroundPlane g = largest_plane(pts, config, rng);
+    if (!g.valid) break;
+    out.push_back(g);
+    std::erase_if(pts, [&](const Vec3& p) { return std::abs(g.normal_lidar.dot(p) + g.height_m) < config.inlier_m; });
+  }
+  return out;
+}
+
+GroundPlane fit_ground_plane(const std::vector<Vec3>& p_lidar, const GroundConfig& config, unsigned seed) {
+  GroundConfig one = config;
+  one.candidates = 1;
+  const std::vector<GroundPlane> c = ground_candidates(p_lidar, one, seed);
+  return c.empty() ? GroundPlane{} : c.front();
 }
 
 Mat3 levelling_rotation(const Vec3& normal_lidar) {
@@ -85,11 +141,12 @@ Iso3 T_ins_lidar_levelled(const Levelling& level, double yaw_rad, const Eigen::V
 
 Levelling level_lidar(const std::vector<InitFrame*>& frames, const GroundConfig& config) {
   Levelling out;
+  choose_ground(frames);
   std::vector<Vec3> normals;
   for (const InitFrame* f : frames)
     if (f->ground.valid) normals.push_back(f->ground.normal_lidar);
   if (normals.size() < 2) {
-    out.message = "no ground plane found below the LiDAR in the frames used; roll and pitch of the extrinsic "
+    out.message = "no ground plane found near the LiDAR in the frames used; roll and pitch of the extrinsic "
                   "cannot be started from the data (give --init)";
     return out;
   }

@@ -15,7 +15,10 @@ struct GroundConfig {
   int level_frames = 8;              ///< frames (spread over the drive) whose ground planes are averaged
   double inlier_m = 0.08;            ///< plane distance of a ground inlier
   int ransac_iterations = 200;
-  double max_tilt_deg = 30.0;        ///< ground normal candidates farther than this from LiDAR z are rejected
+  /// Ground normal candidates farther than this from the LiDAR's z are rejected; 180: any mount
+  /// (upside down, rolled onto its side), the ground told from walls by staying put across frames.
+  double max_tilt_deg = 180.0;
+  int candidates = 3;                ///< planes tried as the ground per frame (the largest first)
   double clearance_m = 0.4;          ///< points this close to the ground are left out of crispness scores
 };
 
@@ -24,7 +27,8 @@ void visit_config(V& v, GroundConfig& c) {
   v("level_frames", c.level_frames, "frames (spread over the drive) for the ground plane");
   v("inlier_m", c.inlier_m, "RANSAC ground-plane inlier distance, m");
   v("ransac_iterations", c.ransac_iterations, "RANSAC iterations for the ground plane");
-  v("max_tilt_deg", c.max_tilt_deg, "ground normals farther than this from LiDAR z are rejected, deg");
+  v("max_tilt_deg", c.max_tilt_deg, "ground normals farther than this from LiDAR z are rejected (180: any mount), deg");
+  v("candidates", c.candidates, "planes tried as the ground per frame, largest first");
   v("clearance_m", c.clearance_m, "points this close to the ground plane are left out of scores, m");
 }
 
@@ -35,8 +39,12 @@ struct GroundPlane {
   bool valid = false;
 };
 
-/// Dominant plane below the sensor (RANSAC, then a least-squares refit), normal within
-/// max_tilt_deg of the sensor's z. Deterministic for a given seed.
+/// The largest planes 0.3-6 m from the sensor within 25 m of it (RANSAC, each refitted by least
+/// squares, then its points taken away), normals towards the sensor and within max_tilt_deg of
+/// its z: up to config.candidates, largest first. Deterministic for a given seed.
+std::vector<GroundPlane> ground_candidates(const std::vector<Vec3>& p_lidar, const GroundConfig& config,
+                                           unsigned seed = 1);
+/// The largest of them.
 GroundPlane fit_ground_plane(const std::vector<Vec3>& p_lidar, const GroundConfig& config, unsigned seed = 1);
 
 /// R_lev_lidar with R_lev_lidar * normal_lidar = z: the smallest such rotation (no yaw added).
@@ -47,7 +55,8 @@ struct InitFrame {
   std::size_t index = 0;                 ///< into the dataset's frames
   Sweep sweep;                           ///< thinned, raw (not deskewed) LiDAR points
   Iso3 T_world_ins = Iso3::Identity();   ///< at the frame time
-  GroundPlane ground;
+  GroundPlane ground;                    ///< chosen by level_lidar among the candidates
+  std::vector<GroundPlane> ground_candidates;
   std::vector<char> off_ground;          ///< per point: farther than the clearance from the ground
 };
 
@@ -68,9 +77,10 @@ struct Levelling {
 /// with yaw, t_xy and tz in the levelled INS frame.
 Iso3 T_ins_lidar_levelled(const Levelling& level, double yaw_rad, const Eigen::Vector2d& t_xy_insl_m, double tz_insl_m);
 
-/// Averages the frames' ground normals (those within 3 deg of the component-wise median: a ramp
-/// or a wall taken for ground is dropped; such frames lose their `ground.valid`) and marks every
-/// frame's off-ground points.
+/// Picks the ground among the frames' candidates (the plane whose normal and height in the LiDAR
+/// frame most frames share: a wall turns with the car, the ground does not), averages the frames'
+/// ground normals (those within 3 deg of the component-wise median; other frames lose their
+/// `ground.valid`) and marks every frame's off-ground points.
 Levelling level_lidar(const std::vector<InitFrame*>& frames, const GroundConfig& config);
 
 }  // namespace insalign
