@@ -161,6 +161,11 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
   if (!r.z.determined() && r.refine) carry_tz_uncertainty(placed, refine_frames, config, r);
 }
 
+void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r) {
+  r.ins_heading_sigma_rad = std::max(0.0, config.ins_heading_sigma_deg) * kRadPerDeg;
+  if (std::isfinite(r.stddev[5])) r.stddev[5] = std::hypot(r.stddev[5], r.ins_heading_sigma_rad);
+}
+
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
                                   const PipelineProgress& progress_in) {
   const auto start = std::chrono::steady_clock::now();
@@ -188,6 +193,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
   run_finish(placed, groups, refine_frames, config, progress, r);  // steps 4-5
+  add_ins_heading_error(config, r);
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);
   return r;

@@ -40,12 +40,18 @@ struct PipelineConfig {
   RepeatabilityConfig repeatability;
   bool run_refine = true;                  ///< stage 2 (false: stop after stage 1)
   std::optional<double> ins_height_m;      ///< INS origin height above the ground, for stage 3
+  /// The INS's heading error over the drive (1 sigma), deg: a heading error is an extrinsic yaw
+  /// error no LiDAR data shows (it turns the map and the trajectory alike), so yaw's reported
+  /// stddev includes it, as tz's includes the INS's height error. 0.01 deg: a high-grade
+  /// RTK-aided INS in motion; set your INS's figure (its datasheet or its stated heading stddev).
+  double ins_heading_sigma_deg = 0.01;
 };
 
 template <class V>
 void visit_config(V& v, PipelineConfig& c) {
   v("run_refine", c.run_refine, "run stage 2 (false: stop after stage 1)");
   v("ins_height_m", c.ins_height_m, "INS origin height above the ground for stage 3 when there are no fiducials, m (null: unknown)");
+  v("ins_heading_sigma_deg", c.ins_heading_sigma_deg, "the INS's heading error over the drive (1 sigma), in yaw's reported stddev, deg");
   v.section("vehicle", c.vehicle);
   v.section("frames", c.frames);
   v.section("motion", c.motion);
@@ -84,6 +90,7 @@ struct CalibrationResult {
   /// m, rad (+inf: not determined): the larger of the stages' formal value and, with the
   /// repeatability study, the segments' spread scaled to the whole drive.
   Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());
+  double ins_heading_sigma_rad = 0.0;  ///< the part of stddev[5] that is the INS's heading error
   std::vector<std::string> warnings;
   std::size_t frames_decoded = 0;       ///< sweeps decoded by the whole run (each at most once)
   double wall_time_s = 0.0;
@@ -110,6 +117,9 @@ void load_stage2_frames(const FrameStore& store, const PipelineConfig& config);
 /// (the repeatability study's stage 1 leaves them out too).
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
                                CalibrationResult& r, FrameGroups& groups);
+/// Yaw's stddev with the INS's heading error (config.ins_heading_sigma_deg) added: the last step,
+/// after anything that compares LiDARs of one INS (their heading error is common).
+void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);
 /// Steps 4-5 after stage 2: stage 3 on `placed` (the store whose poses the result uses) and the
 /// repeatability study when config.repeatability asks for it.
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,

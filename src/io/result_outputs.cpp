@@ -239,6 +239,7 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   out["time_offset_s"] = r.time_offset_s;
   out["stddev"] = dof_map(r.stddev);
   out["stddev"]["time_offset_s"] = number(r.time_offset_stddev_s);
+  out["stddev_yaw_includes_ins_heading_deg"] = r.ins_heading_sigma_rad * kDegPerRad;  // ins_heading_sigma_deg
   out["determined"] = determined_map(r.determined);
   out["tz_source"] = std::string(enum_name(r.z.method));
   out["warnings"] = r.warnings;
