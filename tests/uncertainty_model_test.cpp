@@ -1,5 +1,5 @@
-// The reported stddev's two honesty terms (issue 17, item 6): the segments' inflation pooled over
-// the DOFs, and a drifting INS's height error in tz's stddev.
+// The reported stddev's honesty terms (issue 17, item 6): the segments' inflation pooled over the
+// DOFs, a drifting INS's height error in tz's stddev, and the INS's heading error in yaw's.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -36,6 +36,23 @@ TEST(Repeatability, StddevFloorPoolsTheSegmentsInflation) {
 
 // An RTK-fixed INS states a constant accuracy: the assumed height error stays. A drifting one
 // states a growing stddev: its growth enters (5 mm/sqrt(s) over 30 s: about 16 mm RMS).
+// The INS's heading error is in yaw's stddev and nowhere else; a yaw the drive did not determine
+// stays undetermined.
+TEST(InsHeading, AddsToYawOnly) {
+  PipelineConfig config;
+  config.ins_heading_sigma_deg = 0.01;
+  CalibrationResult r;
+  r.stddev << 1e-3, 1e-3, 1e-2, 1e-5, 1e-5, 0.003 * kRadPerDeg;
+  const Vec6 before = r.stddev;
+  add_ins_heading_error(config, r);
+  EXPECT_NEAR(r.stddev[5] * kDegPerRad, std::hypot(0.003, 0.01), 1e-12);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(r.stddev[i], before[i]) << i;
+  EXPECT_NEAR(r.ins_heading_sigma_rad * kDegPerRad, 0.01, 1e-12);
+  r.stddev[5] = std::numeric_limits<double>::infinity();
+  add_ins_heading_error(config, r);
+  EXPECT_TRUE(std::isinf(r.stddev[5]));
+}
+
 TEST(TzCoupling, InsHeightSigmaFollowsTheStatedDrift) {
   sim::SimConfig sc;
   sc.seed = 3;
