@@ -67,17 +67,20 @@ GroundPlane largest_plane(const std::vector<Vec3>& pts, const GroundConfig& conf
   return best;
 }
 
-// How many frames have a candidate like `g` (normal within 5 deg, height within 0.3 m), and
-// their inliers.
+// One plane seen from two frames: the ground's normal and height in the LiDAR frame barely move
+// (the car's roll and pitch, its springs), a wall's turn and shift with the car.
+bool same_plane(const GroundPlane& a, const GroundPlane& b) {
+  return angle_deg(a.normal_lidar, b.normal_lidar) <= 5.0 && std::abs(a.height_m - b.height_m) <= 0.3;
+}
+
+// How many frames have a candidate like `g`, and their inliers.
 std::pair<int, long> support(const GroundPlane& g, const std::vector<InitFrame*>& frames) {
   int n = 0;
   long inliers = 0;
   for (const InitFrame* f : frames) {
-    for (const GroundPlane& c : f->ground_candidates) {
-      if (angle_deg(c.normal_lidar, g.normal_lidar) > 5.0 || std::abs(c.height_m - g.height_m) > 0.3) continue;
-      ++n, inliers += c.inliers;
-      break;
-    }
+    const auto it = std::find_if(f->ground_candidates.begin(), f->ground_candidates.end(),
+                                 [&](const GroundPlane& c) { return same_plane(c, g); });
+    if (it != f->ground_candidates.end()) ++n, inliers += it->inliers;
   }
   return {n, inliers};
 }
@@ -92,12 +95,9 @@ void choose_ground(const std::vector<InitFrame*>& frames) {
   if (!best) return;
   const GroundPlane chosen = *best;
   for (InitFrame* f : frames) {
-    f->ground = GroundPlane{};
-    for (const GroundPlane& c : f->ground_candidates)
-      if (angle_deg(c.normal_lidar, chosen.normal_lidar) <= 5.0 && std::abs(c.height_m - chosen.height_m) <= 0.3) {
-        f->ground = c;
-        break;
-      }
+    const auto it = std::find_if(f->ground_candidates.begin(), f->ground_candidates.end(),
+                                 [&](const GroundPlane& c) { return same_plane(c, chosen); });
+    f->ground = it != f->ground_candidates.end() ? *it : GroundPlane{};
   }
 }
 
