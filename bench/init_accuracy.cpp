@@ -102,7 +102,8 @@ int main(int argc, char** argv) {
 
     std::string rough_text;
     if (rough) {
-      const RoughResult rr = calibrate_rough(store, rough_frame_groups(store), res.T_ins_lidar);
+      const RoughResult rr = calibrate_rough(store, rough_frame_groups(store, {}, res.time_offset_s), res.T_ins_lidar,
+                                              res.time_offset_s);
       const ExtrinsicError e = extrinsic_error(rr.T_ins_lidar, T_true);
       rough_text = fmt::format("{:.3f} {:.3f}", e.angle_deg, e.dt_m.head<2>().norm());
       worst_rough_ang = std::max(worst_rough_ang, e.angle_deg);

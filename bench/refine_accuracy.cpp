@@ -126,7 +126,7 @@ int main(int argc, char** argv) {
     Iso3 start = perturbed(truth, rng, rot_deg, trans_m);
     const FrameStore store = make_frame_store(data, PipelineConfig{});
     if (from_rough) {
-      const RoughResult rough = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init);
+      const RoughResult rough = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init, 0.0);
       start = rough.T_ins_lidar;
       Run r;
       r.err = to_vec(extrinsic_error(start, truth));

@@ -87,7 +87,7 @@ int main(int argc, char** argv) {
     for (const auto& g : groups) (void)store.thinned(g, rough_config.filter);
     const Iso3 T_true = world->T_ins_lidar_true;
     const std::clock_t cpu0 = std::clock();
-    const RoughResult r = calibrate_rough(store, groups, world->T_ins_lidar_init, rough_config);
+    const RoughResult r = calibrate_rough(store, groups, world->T_ins_lidar_init, 0.0, rough_config);
     const double cpu_s = static_cast<double>(std::clock() - cpu0) / CLOCKS_PER_SEC;
     const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, T_true);
     Run run;

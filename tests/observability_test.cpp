@@ -78,7 +78,7 @@ TEST_P(DriveVerdict, FlagsTheRightDegreesOfFreedom) {
   const auto drive = testing::town_drive(c.drive, testing::roof_mount(60.0), c.frames, 5, scene);
   const Iso3 init = testing::perturbed(drive.T_ins_lidar_true, 1.0, 0.05, 9);
   const FrameStore store = testing::store_of(drive.data);
-  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init);
+  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init, 0.0);
   EXPECT_EQ(r.observability.determined, c.expected) << c.name << ": " << describe_flags(r.observability);
   EXPECT_EQ(unobservable_reason(r.observability).has_value(), c.fatal) << c.name;
   EXPECT_EQ(r.outcome.status == StageStatus::kUndetermined, c.fatal) << c.name;

@@ -90,7 +90,7 @@ TEST(Rough, ConvergesFromTwentyDegreesAndHalfAMetreOnAFigureEight) {
     const auto drive = testing::town_drive(Drive::kFigure8, testing::roof_mount(yaw), 240, 2);
     const Iso3 init = testing::perturbed(drive.T_ins_lidar_true, 20.0, 0.5, static_cast<unsigned>(yaw) + 1);
     const FrameStore store = testing::store_of(drive.data);
-    const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init);
+    const RoughResult r = calibrate_rough(store, rough_frame_groups(store), init, 0.0);
     const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, drive.T_ins_lidar_true);
     for (const auto& log : r.convergence) {
       const ExtrinsicError el = extrinsic_error(log.T_ins_lidar, drive.T_ins_lidar_true);
@@ -118,7 +118,7 @@ TEST(Rough, ConvergesOnAShortReducedResolutionSimulatedDrive) {
   auto world = std::make_shared<const sim::World>(sim::build_world(config));
   const Dataset data = sim::world_dataset(world);
   const FrameStore store = testing::store_of(data);
-  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init);
+  const RoughResult r = calibrate_rough(store, rough_frame_groups(store), world->T_ins_lidar_init, 0.0);
   const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   const ExtrinsicError e0 = extrinsic_error(world->T_ins_lidar_init, world->T_ins_lidar_true);
   std::printf("start %.1f deg %.2f m -> rot %.3f %.3f %.3f deg, t %.2f %.2f %.2f cm in %.2f s; %s\n", e0.angle_deg,

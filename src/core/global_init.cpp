@@ -86,19 +86,30 @@ double ins_height_above_ground(const std::vector<InitFrame*>& frames, const std:
 
 // Sum over groups of the occupied voxels of each group's stitched off-ground points.
 double score_candidate(const std::vector<std::vector<const InitFrame*>>& groups, const PoseStream& poses,
-                       const Iso3& T_ins_lidar, double voxel_m) {
+                       const Iso3& T_ins_lidar, double time_offset_s, double voxel_m) {
   double total = 0.0;
   for (const auto& group : groups) {
     std::vector<Vec3> p_world;
     for (const InitFrame* f : group) {
-      if (!sweep_covered(poses, f->sweep, 0.0)) continue;
-      const std::vector<Vec3f> placed = sweep_to_world(f->sweep, poses, T_ins_lidar);
+      if (!sweep_covered(poses, f->sweep, time_offset_s)) continue;
+      const std::vector<Vec3f> placed =
+          sweep_to_world(f->sweep, poses, T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
       for (std::size_t i = 0; i < placed.size(); ++i)
         if (f->off_ground[i]) p_world.push_back(placed[i].cast<double>());
     }
     total += occupancy_score(p_world, voxel_m);
   }
   return total;
+}
+
+// The time offset the pairs' rotation angles show (the LiDAR's angle between two sweeps is the
+// INS's between the same instants, whatever the extrinsic).
+CoarseTimeOffset time_offset_of(const std::vector<MotionPair>& motions, const PoseStream& poses,
+                                const CoarseTimeOffsetConfig& config) {
+  std::vector<AnglePair> angles;
+  for (const MotionPair& m : motions)
+    angles.push_back({m.t0_s, m.t1_s, Eigen::AngleAxisd(m.T_lev0_lev1.linear()).angle() * kDegPerRad});
+  return fit_time_offset(angles, poses, config);
 }
 
 // The data's candidates (its estimate turned about the vertical, the coarse one) and the init.
@@ -182,7 +193,7 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
   if (T_ins_lidar_init && config.trust_init) {
     GlobalInitResult result = cannot_start(T_ins_lidar_init, "", t0);
-    result.explanation = "init trusted as given (trust_init): not checked against the data";
+    result.explanation = "init trusted as given (trust_init): not checked against the data, time offset not searched";
     return result;
   }
   const DriveFrames drive = drive_frames(store);
@@ -223,7 +234,10 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   // 3. Planar hand-eye.
   std::vector<std::pair<const InitFrame*, const InitFrame*>> pairs;
   for (const auto& [a, b] : plan.pairs) pairs.push_back({&loaded.at(a), &loaded.at(b)});
-  const std::vector<MotionPair> motions = register_pairs(pairs, store.poses(), T_coarse, level, config.hand_eye);
+  std::vector<MotionPair> motions = register_pairs(pairs, store.poses(), T_coarse, level, config.hand_eye);
+  result.time_offset = time_offset_of(motions, store.poses(), config.time_offset);
+  result.time_offset_s = result.time_offset.offset_s;
+  if (result.time_offset.applied) set_ins_motions(motions, store.poses(), level, result.time_offset_s);
   const PlanarHandEyeResult he = solve_planar_hand_eye(motions, tz_insl_m, config.hand_eye);
   result.hand_eye_s = elapsed() - result.load_s - result.coarse_s;
   Iso3 T_data = T_coarse;
@@ -247,7 +261,8 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   std::vector<InitCandidate> cand =
       make_candidates(T_data, he.valid ? std::optional<Iso3>(T_coarse) : std::nullopt, T_ins_lidar_init, level);
   tbb::parallel_for(std::size_t{0}, cand.size(), [&](std::size_t c) {
-    cand[c].score = score_candidate(groups, store.poses(), cand[c].T_ins_lidar, config.crispness_voxel_m);
+    cand[c].score =
+        score_candidate(groups, store.poses(), cand[c].T_ins_lidar, result.time_offset_s, config.crispness_voxel_m);
   });
   result.candidates = cand;
   result.score_s = elapsed() - result.load_s - result.coarse_s - result.hand_eye_s;
@@ -257,7 +272,8 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
              level.planes_used, level.normal_spread_deg, level.lidar_height_m)
       << fmt::format("coarse yaw {:.1f} deg by crispness of {} frames over {:.1f} m; ", result.coarse_yaw_deg,
                      plan.coarse.size(), plan.coarse_stretch_m)
-      << data_how << "; z: " << z_how << ". Scores (occupied " << config.crispness_voxel_m
+      << data_how << "; " << result.time_offset.explanation << "; z: " << z_how << ". Scores (occupied "
+      << config.crispness_voxel_m
       << " m voxels, lower is crisper):";
   for (const InitCandidate& c : cand) why << " " << c.label << " " << c.score;
   why << ".";

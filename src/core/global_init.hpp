@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "core/coarse_time_offset.hpp"
 #include "core/coarse_yaw.hpp"
 #include "core/frame_store.hpp"
 #include "core/ground_level.hpp"
@@ -31,6 +32,7 @@ struct GlobalInitConfig {
   GroundConfig ground;
   CoarseYawConfig coarse;
   HandEyeConfig hand_eye;
+  CoarseTimeOffsetConfig time_offset;  ///< the LiDAR-to-INS time offset from the hand-eye pairs' angles
   double crispness_voxel_m = 0.5;      ///< voxel of the occupancy count every score uses
   /// INS origin height above the ground when there are no fiducials: an INS in the trunk or cabin
   /// of a car sits about 1 m up (the NovAtel sample: trunk); stage 3 fixes z from fiducials.
@@ -50,6 +52,7 @@ void visit_config(V& v, GlobalInitConfig& c) {
   v.section("ground", c.ground);
   v.section("coarse", c.coarse);
   v.section("hand_eye", c.hand_eye);
+  v.section("time_offset", c.time_offset);
   v("crispness_voxel_m", c.crispness_voxel_m, "voxel of the occupancy count used as a score, m");
   v("ins_height_guess_m", c.ins_height_guess_m, "INS origin height above the ground assumed without fiducials, m");
   v("override_score_ratio", c.override_score_ratio, "the data overrides --init when the init scores this factor worse");
@@ -79,6 +82,10 @@ struct GlobalInitResult {
   /// kUndetermined: no init was given and the data cannot give a start (message says why).
   StageOutcome outcome;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< the chosen start for stage 1
+  /// The time offset stage 1 starts from (t_ins = t_lidar + offset): time_offset.offset_s when the
+  /// data showed one far from 0 (a host-stamped LiDAR), else 0.
+  double time_offset_s = 0.0;
+  CoarseTimeOffset time_offset;
   InitSource source = InitSource::kData;
   std::string explanation;              ///< why: the steps and the scores
   std::vector<InitCandidate> candidates;

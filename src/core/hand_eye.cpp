@@ -62,13 +62,23 @@ std::vector<std::pair<std::size_t, std::size_t>> hand_eye_pairs(const DriveFrame
   return pairs;
 }
 
+void set_ins_motions(std::vector<MotionPair>& pairs, const PoseStream& poses, const Levelling& level,
+                     double time_offset_s) {
+  Iso3 T_insl_ins = Iso3::Identity();
+  T_insl_ins.linear() = level.R_ins_insl.transpose();
+  for (MotionPair& m : pairs) {
+    const Iso3 T_ins0_ins1 =
+        poses.T_world_ins(m.t0_s + time_offset_s).inverse() * poses.T_world_ins(m.t1_s + time_offset_s);
+    m.T_insl0_insl1 = T_insl_ins * T_ins0_ins1 * T_insl_ins.inverse();
+  }
+}
+
 std::vector<MotionPair> register_pairs(const std::vector<std::pair<const InitFrame*, const InitFrame*>>& pairs,
                                        const PoseStream& poses, const Iso3& T_ins_lidar_coarse,
                                        const Levelling& level, const HandEyeConfig& config) {
   std::vector<MotionPair> motions(pairs.size());
   std::vector<char> converged(pairs.size(), 0);
-  Iso3 T_insl_ins = Iso3::Identity(), T_lidar_lev = Iso3::Identity();
-  T_insl_ins.linear() = level.R_ins_insl.transpose();
+  Iso3 T_lidar_lev = Iso3::Identity();
   T_lidar_lev.linear() = level.R_lev_lidar.transpose();
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     const InitFrame& f0 = *pairs[k].first;
@@ -82,13 +92,15 @@ std::vector<MotionPair> register_pairs(const std::vector<std::pair<const InitFra
     const Iso3 T_lidar0_lidar1_predicted = T_ins_lidar_coarse.inverse() * T_ins0_ins1 * T_ins_lidar_coarse;
     const ScanRegistrationResult reg = register_scans(target, source, T_lidar0_lidar1_predicted, config.icp);
     if (!reg.converged) return;
-    motions[k].T_insl0_insl1 = T_insl_ins * T_ins0_ins1 * T_insl_ins.inverse();
     motions[k].T_lev0_lev1 = T_lidar_lev.inverse() * reg.T_target_source * T_lidar_lev;
+    motions[k].t0_s = f0.sweep.t_end_s;
+    motions[k].t1_s = f1.sweep.t_end_s;
     converged[k] = 1;
   });
   std::vector<MotionPair> out;
   for (std::size_t k = 0; k < pairs.size(); ++k)
     if (converged[k]) out.push_back(motions[k]);
+  set_ins_motions(out, poses, level, 0.0);
   return out;
 }
 

@@ -58,7 +58,13 @@ std::vector<std::pair<std::size_t, std::size_t>> hand_eye_pairs(const DriveFrame
 struct MotionPair {
   Iso3 T_insl0_insl1 = Iso3::Identity();
   Iso3 T_lev0_lev1 = Iso3::Identity();
+  double t0_s = 0.0, t1_s = 0.0;  ///< the two sweeps' times, LiDAR clock
 };
+
+/// Each pair's INS motion between its sweeps' times shifted by time_offset_s (t_ins = t_lidar +
+/// offset), in the levelled INS frame.
+void set_ins_motions(std::vector<MotionPair>& pairs, const PoseStream& poses, const Levelling& level,
+                     double time_offset_s);
 
 /// Registers each pair (frames deskewed with T_ins_lidar_coarse, ICP started from the INS motion
 /// through it) and returns the converged ones in the levelled frames.

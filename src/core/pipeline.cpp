@@ -93,8 +93,8 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   return FrameStore(data, base, config.frames);
 }
 
-void load_stage2_frames(const FrameStore& store, const PipelineConfig& config) {
-  if (config.run_refine) store.load(refine_frames(store, config.refine, 0.0, refine_margin_s(config.refine)));
+void load_stage2_frames(const FrameStore& store, const PipelineConfig& config, double time_offset_s) {
+  if (config.run_refine) store.load(refine_frames(store, config.refine, time_offset_s, refine_margin_s(config.refine)));
 }
 
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
@@ -104,7 +104,7 @@ FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& l
   if (auto mask = find_moving_points(out, r.T_ins_lidar, r.time_offset_s, config.moving, r.moving))
     out = out.with_mask(mask);
   r.excluded = out.excluded();
-  if (out.excluded().size() != store.excluded().size()) groups = rough_frame_groups(out, config.rough);
+  if (out.excluded().size() != store.excluded().size()) groups = rough_frame_groups(out, config.rough, r.time_offset_s);
   return out;
 }
 
@@ -125,8 +125,11 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
   if (r.init.source == InitSource::kDataOverridesInit) r.warnings.push_back(r.init.explanation);
 
   // 2. Stage 1.
-  FrameGroups groups = rough_frame_groups(store, config.rough);
-  r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, config.rough, [&](double f) { progress("rough", f); });
+  // Stage 1 places the sweeps with the time offset the start found (0 unless it is far from 0).
+  r.time_offset_s = r.init.time_offset_s;
+  FrameGroups groups = rough_frame_groups(store, config.rough, r.time_offset_s);
+  r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, r.time_offset_s, config.rough,
+                            [&](double f) { progress("rough", f); });
   if (!stage1_may_fail) stop_if_undetermined(r.rough.outcome);
   r.T_ins_lidar = r.rough.T_ins_lidar;
   r.determined = r.rough.outcome.determined;
@@ -179,14 +182,14 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   // and left out of every later step (stage 2 picks its frames again after the checks, the same
   // ones but for those in a span left out).
   progress("screen", 0.0);  // decoding stage 2's frames is part of the checks' cost
-  load_stage2_frames(status_screened, config);
+  load_stage2_frames(status_screened, config, r.time_offset_s);
   const InsScreenResult checks = lidar_checks(status_screened, r.T_ins_lidar, r.time_offset_s, config.ins_screen);
   const FrameStore screened = screen_after_stage1(status_screened, checks, config, r, groups);
   progress("screen", 1.0);
 
   // 3. Stage 2 (with an early stage 3 first).
   const std::vector<std::size_t> refine_frames =
-      config.run_refine ? insalign::refine_frames(screened, config.refine, 0.0, refine_margin_s(config.refine))
+      config.run_refine ? insalign::refine_frames(screened, config.refine, r.time_offset_s, refine_margin_s(config.refine))
                         : std::vector<std::size_t>{};
   if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
   if (config.run_refine) run_trajectory_correction(screened, config, progress, r);

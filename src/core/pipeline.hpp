@@ -109,7 +109,7 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
                       CalibrationResult& r, bool stage1_may_fail = false);
 /// Decodes the frames stage 2 will take (config.run_refine): the checks after stage 1 sample
 /// decoded frames first, so that they check the frames stage 2 uses.
-void load_stage2_frames(const FrameStore& store, const PipelineConfig& config);
+void load_stage2_frames(const FrameStore& store, const PipelineConfig& config, double time_offset_s);
 /// After stage 1, the store every later step reads: the spans `lidar_checks` found left out (INS
 /// time: a rig's reference LiDAR's checks serve every LiDAR on the INS) and the points on moving
 /// things masked (config.moving, found with r's stage-1 extrinsic and time offset). r.ins_screen,

@@ -37,7 +37,7 @@ SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInpu
     own.rounds.erase(own.rounds.begin(), own.rounds.end() - rough_rounds);
     start = in.T_ins_lidar_full;
   }
-  const RoughResult rough = calibrate_rough(store, frames.groups, start, own);
+  const RoughResult rough = calibrate_rough(store, frames.groups, start, in.time_offset_full_s, own);
   if (!rough.outcome.ok()) {
     out.message = rough.outcome.message;
     return out;

@@ -117,7 +117,7 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
     const bool far = check.moved_rot_deg > c.restart_rot_deg || check.moved_xy_m > c.restart_trans_m;
     if (!reg.converged || !far || check.rms_after_m * c.min_fit_gain > check.rms_before_m) continue;
     const Iso3& start = check.T_ins_lidar_map;
-    RoughResult again = calibrate_rough(stores[l], rough_groups[l], start, config.rough);
+    RoughResult again = calibrate_rough(stores[l], rough_groups[l], start, r.time_offset_s, config.rough);
     check.rms_restarted_m = registration.fit(at_map_tz(again.T_ins_lidar)).rms_m;
     const std::string what = fmt::format(
         "{}its sweeps fit the map of '{}' {:.2f} deg / {:.0f} mm from its stage 1 (point-to-plane RMS {:.1f} mm there, "
@@ -159,7 +159,7 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
 void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameGroups>& rough_groups,
                              const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
   if (progress) progress("screen", 0.0);
-  for (const FrameStore& store : stores) load_stage2_frames(store, config);
+  for (std::size_t l = 0; l < stores.size(); ++l) load_stage2_frames(stores[l], config, rig.lidars[l].result.time_offset_s);
   const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
   const CalibrationResult& rr = rig.lidars[ref].result;
   InsScreenResult checks = lidar_checks(stores[ref], rr.T_ins_lidar, rr.time_offset_s, config.ins_screen);
@@ -262,7 +262,7 @@ std::vector<RefineLidar> group_inputs(const std::vector<FrameStore>& stores, con
     CalibrationResult& r = rig.lidars[l].result;
     const ZResult early_z = correct_z(stores[l], r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
     if (early_z.determined()) r.T_ins_lidar = early_z.T_ins_lidar;
-    in.push_back({rig.lidars[l].name, &stores[l], refine_frames(stores[l], config.refine, 0.0, margin), r.T_ins_lidar,
+    in.push_back({rig.lidars[l].name, &stores[l], refine_frames(stores[l], config.refine, r.time_offset_s, margin), r.T_ins_lidar,
                   r.time_offset_s, true, relative && l != anchor});
     if (relative) rig.lidars[l].tz_anchor = rig.lidars[anchor].name;
   }

@@ -273,8 +273,8 @@ PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observa
   return system;
 }
 
-FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config) {
-  const DriveFrames drive = drive_frames(store);
+FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config, double time_offset_s) {
+  const DriveFrames drive = drive_frames(store, time_offset_s);
   return spread_groups(drive, store.frames_config(), config.groups, config.frames_per_group);
 }
 
@@ -302,15 +302,16 @@ RoughFrames load_rough_frames(const FrameStore& store, const FrameGroups& groups
 
 // The plane clusters of every window of one round, at the current extrinsic.
 Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, const Iso3& T_ins_lidar,
-                            const RoughRound& round, const RoughConfig& config, int* windows) {
+                            double time_offset_s, const RoughRound& round, const RoughConfig& config, int* windows) {
   PlaceOptions place;
   place.per_point_time = config.deskew;
+  place.time_offset_s = time_offset_s;
   std::vector<std::vector<Vec3f>> p_lidar(frames.sweeps.size());
   Problem placed;
   placed.T_world_ins.resize(frames.sweeps.size());
   tbb::parallel_for(std::size_t{0}, frames.sweeps.size(), [&](std::size_t k) {
     p_lidar[k] = deskew_sweep(frames.sweeps[k], poses, T_ins_lidar, place);
-    placed.T_world_ins[k] = frame_pose(frames.sweeps[k], poses, 0.0);
+    placed.T_world_ins[k] = frame_pose(frames.sweeps[k], poses, time_offset_s);
   });
   PlaneFeatureConfig plane_config;
   plane_config.root_voxel_m = round.root_voxel_m;
@@ -406,7 +407,8 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }  // namespace
 
 RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, const Iso3& T_ins_lidar_init,
-                            const RoughConfig& config, const std::function<void(double fraction)>& progress) {
+                            double time_offset_s, const RoughConfig& config,
+                            const std::function<void(double fraction)>& progress) {
   const auto start = std::chrono::steady_clock::now();
   auto report = [&](double f) {
     if (progress) progress(f);
@@ -445,7 +447,7 @@ RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, 
     const auto round_start = std::chrono::steady_clock::now();
     RoundLog log;
     log.round = index;
-    problem = build_round_problem(frames, store.poses(), T_ins_lidar, round, config, &log.windows);
+    problem = build_round_problem(frames, store.poses(), T_ins_lidar, time_offset_s, round, config, &log.windows);
     log.planes = problem.planes();
     log.residuals = problem.residuals;
     log.build_s = seconds_since(round_start);

@@ -102,13 +102,15 @@ struct RoughResult {
 
 /// Groups of consecutive moving frames spread over the drive (no sweep is loaded).
 using FrameGroups = std::vector<std::vector<std::size_t>>;
-FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config = {});
+FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& config = {}, double time_offset_s = 0.0);
 
 /// Runs stage 1 on the given groups (rough_frame_groups, or a time slice of them). Reads the
 /// frames from the store (thinned by config.filter). Does not throw for degenerate data: the
 /// outcome says which DOFs are undetermined and why. Throws what the frame loader throws.
+/// time_offset_s: the LiDAR-to-INS time offset the sweeps are placed with (t_ins = t_lidar +
+/// offset; global initialisation's, stage 1 does not estimate it).
 RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, const Iso3& T_ins_lidar_init,
-                            const RoughConfig& config = {},
+                            double time_offset_s, const RoughConfig& config = {},
                             const std::function<void(double fraction)>& progress = {});
 
 /// The points one frame saw of one plane (the association is fixed; the plane itself is refitted

@@ -48,6 +48,12 @@ json init_json(const GlobalInitResult& init) {
             {"explanation", init.explanation},
             {"extrinsic", extrinsic_fields(init.T_ins_lidar)},
             {"frames_loaded", init.frames_loaded},
+            {"time_offset", {{"applied", init.time_offset.applied},
+                             {"offset_s", init.time_offset.offset_s},
+                             {"best_offset_s", init.time_offset.best_offset_s},
+                             {"median_angle_difference_at_best_deg", init.time_offset.median_at_best_deg},
+                             {"median_angle_difference_at_zero_deg", init.time_offset.median_at_zero_deg},
+                             {"pairs", init.time_offset.pairs}}},
             {"seconds", {{"load", init.load_s}, {"coarse_yaw", init.coarse_s}, {"hand_eye", init.hand_eye_s},
                          {"scores", init.score_s}}},
             {"candidates", json::array()}};

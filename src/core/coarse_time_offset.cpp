@@ -1,0 +1,65 @@
+#include "core/coarse_time_offset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+#include <limits>
+
+namespace insalign {
+namespace {
+
+double angle_between_deg(const PoseStream& poses, double t0_s, double t1_s) {
+  const Mat3 R = poses.T_world_ins(t0_s).linear().transpose() * poses.T_world_ins(t1_s).linear();
+  return Eigen::AngleAxisd(R).angle() * kDegPerRad;
+}
+
+// Median |LiDAR - INS angle| over the pairs the poses cover at this offset (NaN: too few).
+double median_difference_deg(const std::vector<AnglePair>& pairs, const PoseStream& poses, double offset_s,
+                             std::size_t min_pairs) {
+  std::vector<double> d;
+  for (const AnglePair& p : pairs) {
+    if (!poses.covers(p.t0_s + offset_s) || !poses.covers(p.t1_s + offset_s)) continue;
+    d.push_back(std::abs(p.lidar_deg - angle_between_deg(poses, p.t0_s + offset_s, p.t1_s + offset_s)));
+  }
+  if (d.size() < std::max<std::size_t>(min_pairs, 1)) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  return *mid;
+}
+
+}  // namespace
+
+CoarseTimeOffset fit_time_offset(const std::vector<AnglePair>& pairs, const PoseStream& poses,
+                                 const CoarseTimeOffsetConfig& config) {
+  CoarseTimeOffset out;
+  out.pairs = pairs.size();
+  if (config.range_s <= 0.0 || config.step_s <= 0.0 || pairs.size() < config.min_pairs) {
+    out.explanation = fmt::format("time offset: not searched ({} registered pairs)", pairs.size());
+    return out;
+  }
+  out.median_at_zero_deg = median_difference_deg(pairs, poses, 0.0, config.min_pairs);
+  const int n = static_cast<int>(std::floor(config.range_s / config.step_s + 1e-9));
+  double best = std::numeric_limits<double>::infinity();
+  for (int i = -n; i <= n; ++i) {
+    const double offset = i * config.step_s;
+    const double m = median_difference_deg(pairs, poses, offset, config.min_pairs);
+    // Ties go to the offset nearest 0.
+    if (m < best || (m == best && std::abs(offset) < std::abs(out.best_offset_s))) best = m, out.best_offset_s = offset;
+  }
+  out.median_at_best_deg = best;
+  const bool far = std::abs(out.best_offset_s) >= config.min_offset_s;
+  const bool clear = std::isfinite(best) && std::isfinite(out.median_at_zero_deg) &&
+                     out.median_at_zero_deg >= config.min_gain * best &&
+                     out.median_at_zero_deg - best >= config.min_gain_deg;
+  out.applied = far && clear;
+  out.offset_s = out.applied ? out.best_offset_s : 0.0;
+  out.explanation = fmt::format(
+      "time offset from the rotation angles of {} pairs: best {:+.3f} s (median |LiDAR - INS angle| {:.3f} deg, at 0 s "
+      "{:.3f} deg): {}",
+      pairs.size(), out.best_offset_s, best, out.median_at_zero_deg,
+      out.applied ? "taken (stage 2 refines it)"
+                  : (far ? "not clear enough, 0 kept (stage 2 searches +-its range)" : "left to stage 2"));
+  return out;
+}
+
+}  // namespace insalign
