@@ -6,7 +6,7 @@
 // loader would decode them; warm: the same stores again, sweeps cached: the calibration alone).
 //
 //   build/bench/rig_accuracy --seeds 10 [--scene default|recorded|both] [--azimuth-step-deg 0.2]
-//     [--relative-tz 0|1] [--shared-stage3 0|1] [--no-alone] [--no-timing]
+//     [--relative-tz 0|1] [--shared-stage3 0|1] [--ins-noise-scale S] [--no-alone] [--no-timing]
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <sys/resource.h>
@@ -95,6 +95,7 @@ void check_pairs(const RigResult& rig, const sim::World& world, SeedRun& run) {
 
 struct Options {
   double azimuth_step_deg = 0.2, duration_s = 0.0;
+  double ins_noise_scale = std::nan("");  // NaN: the scenario's (0: perfect poses)
   std::string trajectory;
   bool alone = true, timing = true;  // run the LiDARs alone; time warm runs and the roof alone
   PipelineConfig config;
@@ -108,6 +109,7 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, const Options& o)
   base.duration_s = duration_s;
   bench::ScenarioRun scenario = bench::make_scenario(scene, base, seed, trajectory);
   scenario.sim.rig = kRig;
+  if (std::isfinite(o.ins_noise_scale)) scenario.sim.ins_noise_scale = o.ins_noise_scale;
   const auto world = std::make_shared<const sim::World>(sim::build_world(scenario.sim));
   std::vector<Dataset> data;
   std::vector<std::string> names;
@@ -198,6 +200,22 @@ void report(const std::string& scene, const std::vector<std::string>& names, con
       print_row(label + " worst", worst);
     }
   }
+  // Joint against alone per seed (alone minus joint |error|: positive = better jointly), with the
+  // standard error of the mean: is a difference larger than the seeds' scatter?
+  for (std::size_t l = 0; l < names.size(); ++l) {
+    std::string line;
+    for (int i = 3; i < 6; ++i) {
+      std::vector<double> d;
+      for (const SeedRun& r : runs)
+        if (r.alone_ok[l]) d.push_back(r.alone[l][i] - r.joint[l][i]);
+      if (d.size() < 2) continue;
+      double mean = 0, var = 0;
+      for (double x : d) mean += x / d.size();
+      for (double x : d) var += (x - mean) * (x - mean) / (d.size() - 1);
+      line += fmt::format(" {} {:+.4f} +- {:.4f}", kDofNames[i], mean, std::sqrt(var / d.size()));
+    }
+    if (!line.empty()) fmt::print("{} alone - joint |error|, deg (mean +- standard error):{}\n", names[l], line);
+  }
   double sigma = 0, loop_m = 0, loop_deg = 0, rc = 0, rw = 0, oc = 0, ow = 0, rcpu = 0, ocpu = 0;
   for (const SeedRun& r : runs) {
     sigma = std::max(sigma, r.worst_sigma), loop_m = std::max(loop_m, r.loop_m), loop_deg = std::max(loop_deg, r.loop_deg);
@@ -237,6 +255,7 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", o.duration_s, "drive length (0: the trajectory's, ~1000 frames)");
   app.add_option("--relative-tz", o.config.refine.joint.relative_tz, "joint stage 2 moves the members' tz but the anchor's (refine.joint.relative_tz)");
   app.add_option("--shared-stage3", o.config.refine.joint.shared_stage3, "the anchor's stage-3 change moves every member (refine.joint.shared_stage3)");
+  app.add_option("--ins-noise-scale", o.ins_noise_scale, "INS noise scale of the simulator (default: the scenario's; 0: perfect poses)");
   app.add_flag("--no-alone", no_alone, "skip the LiDARs alone (the alone rows print nan)");
   app.add_flag("--no-timing", no_timing, "skip the warm rig run and the roof alone (no times)");
   CLI11_PARSE(app, argc, argv);
@@ -249,8 +268,9 @@ int main(int argc, char** argv) {
     else fmt::print("recorded trajectory {} missing: skipped\n", trajectory);
   }
   const std::vector<std::string> names = {"top", "left", "right", "front"};
-  fmt::print("rig {} at azimuth step {} deg, duration {} s (0: full); relative_tz {}, shared_stage3 {}\n", kRig,
-             o.azimuth_step_deg, o.duration_s, o.config.refine.joint.relative_tz, o.config.refine.joint.shared_stage3);
+  fmt::print("rig {} at azimuth step {} deg, duration {} s (0: full); relative_tz {}, shared_stage3 {}; INS noise scale {}\n",
+             kRig, o.azimuth_step_deg, o.duration_s, o.config.refine.joint.relative_tz, o.config.refine.joint.shared_stage3,
+             std::isfinite(o.ins_noise_scale) ? fmt::format("{}", o.ins_noise_scale) : std::string("of the scenario"));
   for (const std::string& s : scenes) {
     std::vector<SeedRun> runs;
     for (int seed = first_seed; seed < first_seed + seeds; ++seed) {
