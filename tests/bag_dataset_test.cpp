@@ -678,7 +678,9 @@ TEST(BagDataset, Ros1PartialChunkReadsGiveTheSameBytes) {
     for (auto it = all.rbegin(); it != all.rend(); ++it) ASSERT_EQ(partial->read(it->first), it->second);
     const auto odom_first = open_bag(path);  // INS first (partial chunks), then the clouds
     for (const auto& [ref, bytes] : all) {
-      if (odom_first->topics()[ref.topic].name == "/odom") ASSERT_EQ(odom_first->read(ref), bytes);
+      if (odom_first->topics()[ref.topic].name == "/odom") {
+        ASSERT_EQ(odom_first->read(ref), bytes);
+      }
     }
     for (const auto& [ref, bytes] : all) ASSERT_EQ(odom_first->read(ref), bytes);
   }
@@ -781,7 +783,9 @@ TEST(BagDataset, NovatelGpsMsgsNamesReadAsTheOem7Ones) {
     const Iso3 got = d.lidars[0].poses.T_world_ins(kT0 + 1.0);
     expect_near(got, T_world_vehicle(kT0 + 1.0, 0.0) * T_vehicle_novatel(), 1e-6, "novatel_gps_msgs");
     EXPECT_NEAR(got.linear().col(1).x(), 1.0, 1e-9);  // y forward = east
-    if (inspvax) EXPECT_EQ(d.lidars[0].ins_quality[5].solution, GnssSolution::kRtkFloat);
+    if (inspvax) {
+      EXPECT_EQ(d.lidars[0].ins_quality[5].solution, GnssSolution::kRtkFloat);
+    }
   }
 }
 

@@ -8,18 +8,13 @@
 namespace insalign {
 namespace {
 
-double angle_between_deg(const PoseStream& poses, double t0_s, double t1_s) {
-  const Mat3 R = poses.T_world_ins(t0_s).linear().transpose() * poses.T_world_ins(t1_s).linear();
-  return Eigen::AngleAxisd(R).angle() * kDegPerRad;
-}
-
 // Median |LiDAR - INS angle| over the pairs the poses cover at this offset (NaN: too few).
 double median_difference_deg(const std::vector<AnglePair>& pairs, const PoseStream& poses, double offset_s,
                              std::size_t min_pairs) {
   std::vector<double> d;
   for (const AnglePair& p : pairs) {
-    if (!poses.covers(p.t0_s + offset_s) || !poses.covers(p.t1_s + offset_s)) continue;
-    d.push_back(std::abs(p.lidar_deg - angle_between_deg(poses, p.t0_s + offset_s, p.t1_s + offset_s)));
+    const double ins_deg = rotation_angle_deg(poses, p.t0_s + offset_s, p.t1_s + offset_s);
+    if (std::isfinite(ins_deg)) d.push_back(std::abs(p.lidar_deg - ins_deg));
   }
   if (d.size() < std::max<std::size_t>(min_pairs, 1)) return std::numeric_limits<double>::quiet_NaN();
   const auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);

@@ -4,7 +4,8 @@
 // two registered sweeps equals the INS's rotation angle between the same instants whatever the
 // extrinsic is (R_lidar = X^T R_ins X keeps the angle), and where the car's turning rate changes
 // between the two sweeps the INS angle changes with the offset: the offset that makes the INS
-// angles of the hand-eye pairs match the LiDAR's is the clock difference.
+// angles of the hand-eye pairs match the LiDAR's is the clock difference. (io/clock_alignment
+// uses the same angles to choose among whole-second offsets before any stage runs.)
 #pragma once
 
 #include <cstddef>

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <string>
 
 namespace insalign {
@@ -56,6 +57,12 @@ Iso3 PoseStream::T_world_ins(double t_s) const {
   const double s2 = s * s, s3 = s2 * s;
   out.translation() = (2 * s3 - 3 * s2 + 1) * pa + (s3 - 2 * s2 + s) * va + (-2 * s3 + 3 * s2) * pb + (s3 - s2) * vb;
   return out;
+}
+
+double rotation_angle_deg(const PoseStream& poses, double t0_s, double t1_s) {
+  if (!poses.covers(t0_s) || !poses.covers(t1_s)) return std::numeric_limits<double>::quiet_NaN();
+  const Mat3 R = poses.T_world_ins(t0_s).linear().transpose() * poses.T_world_ins(t1_s).linear();
+  return Eigen::AngleAxisd(R).angle() * kDegPerRad;
 }
 
 }  // namespace insalign

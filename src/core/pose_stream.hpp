@@ -41,4 +41,9 @@ class PoseStream {
   std::vector<StampedPose> poses_;
 };
 
+/// The INS's rotation angle between two instants, deg; NaN unless the stream covers both. Equal to
+/// a rigidly mounted sensor's rotation angle between the same instants whatever the mount
+/// (R_sensor = X^T R_ins X keeps the angle): what clock checks compare a LiDAR's motion with.
+double rotation_angle_deg(const PoseStream& poses, double t0_s, double t1_s);
+
 }  // namespace insalign

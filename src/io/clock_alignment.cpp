@@ -144,10 +144,7 @@ std::vector<PotentialPair> potential_pairs(const FrameSource& frames, const Pose
     if (dt > 1.5 * gap_s || f[a + 1].t_end_s - f[a].t_end_s > 3.0 * half_period_s) continue;  // a hole
     PotentialPair p{a, a + 1, b, f[a].t_end_s - half_period_s, f[b].t_end_s - half_period_s, {}};
     for (const ClockCandidate& c : candidates) {
-      const bool in = poses.covers(p.t_a_s + c.offset_s) && poses.covers(p.t_b_s + c.offset_s);
-      p.ins_deg.push_back(in ? angle_deg(poses.T_world_ins(p.t_a_s + c.offset_s).linear().transpose() *
-                                         poses.T_world_ins(p.t_b_s + c.offset_s).linear())
-                             : std::numeric_limits<double>::quiet_NaN());
+      p.ins_deg.push_back(rotation_angle_deg(poses, p.t_a_s + c.offset_s, p.t_b_s + c.offset_s));
     }
     out.push_back(std::move(p));
   }
