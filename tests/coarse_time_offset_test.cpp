@@ -37,7 +37,7 @@ std::vector<AnglePair> pairs_seen(const PoseStream& poses, double offset_s, doub
 TEST(CoarseTimeOffset, FoundWhereTheTurningRateChanges) {
   // Weaving: the turning rate changes all the time, as in a figure-8.
   const PoseStream poses = turning([](double t) { return 40.0 * std::sin(0.4 * t); }, 30.0);
-  for (double offset : {-0.31, 0.12, 0.4}) {
+  for (double offset : {-0.8, -0.31, 0.12, 0.4, 0.95}) {
     const CoarseTimeOffset r = fit_time_offset(pairs_seen(poses, offset, 0.02), poses, {});
     EXPECT_TRUE(r.applied) << r.explanation;
     // Coarse is enough: within half of stage 2's own search (+-0.05 s), which refines it.

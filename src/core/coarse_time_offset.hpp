@@ -17,7 +17,7 @@
 namespace insalign {
 
 struct CoarseTimeOffsetConfig {
-  double range_s = 0.5;         ///< offsets searched within +- this, s (0: off)
+  double range_s = 1.0;         ///< offsets searched within +- this, s (0: off); whole seconds beyond: io/clock_alignment
   double step_s = 0.0025;       ///< search step, s
   /// Offsets closer to 0 than this are left to stage 2's own search (it finds them more finely).
   double min_offset_s = 0.02;
