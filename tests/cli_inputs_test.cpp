@@ -97,7 +97,9 @@ TEST_P(CliCalibrateBag, WithinTheAccuracyBoundsFromTheWrongGuess) {
   EXPECT_LT(e.drpy_deg.maxCoeff(), c.deskewed ? 0.03 : 0.1);
   EXPECT_LT(e.dt_m.head<2>().maxCoeff(), c.deskewed ? 0.01 : 0.05);
   EXPECT_LT(e.dt_m.z(), 0.02);
-  if (c.deskewed) EXPECT_LT(std::abs(result.time_offset_s.value_or(1.0) - truth.time_offset_s.value_or(0.0)), 0.002);
+  if (c.deskewed) {
+    EXPECT_LT(std::abs(result.time_offset_s.value_or(1.0) - truth.time_offset_s.value_or(0.0)), 0.002);
+  }
 
   const nlohmann::json j = nlohmann::json::parse(io::read_file(out / "extrinsic.json"));
   EXPECT_EQ(j["input"]["kind"], "recording");
@@ -391,6 +393,20 @@ TEST(CliInputs, WholeSecondClockOffsetIsDetectedAndCorrected) {
   fs::remove_all(dir);
 }
 
+// The TUM file `in` with every time shifted by shift_s, as `out`.
+void write_shifted_tum(const fs::path& in_path, double shift_s, const fs::path& out_path) {
+  std::ifstream in(in_path);
+  std::ofstream out(out_path);
+  for (std::string line; std::getline(in, line);) {
+    std::istringstream fields(line);
+    double t = 0.0;
+    std::string rest;
+    if (line.empty() || line[0] == '#' || !(fields >> t)) continue;
+    std::getline(fields, rest);
+    out << fmt::format("{:.9f}{}\n", t + shift_s, rest);
+  }
+}
+
 // A PCD folder whose TUM poses are stamped 18 s ahead (GPS time vs UTC): the ranges overlap, so
 // only the motion can tell; the offset is found, applied and reported. Two folders are a rig:
 // both described, one named twice is refused.
@@ -399,18 +415,7 @@ TEST(CliInputs, PcdFolderClockOffsetFoundFromTheMotionAndRigFolders) {
   const auto [sim_rc, sim_out] = run("simulate --out " + (dir / "sim").string() +
                                      " --lidar vlp16 --azimuth-step-deg 2 --seed 1 --duration-s 25 --quiet");
   ASSERT_EQ(sim_rc, 0) << sim_out;
-  {
-    std::ifstream in(dir / "sim" / "poses_tum.txt");
-    std::ofstream out(dir / "gps_tum.txt");
-    for (std::string line; std::getline(in, line);) {
-      std::istringstream fields(line);
-      double t = 0.0;
-      std::string rest;
-      if (line.empty() || line[0] == '#' || !(fields >> t)) continue;
-      std::getline(fields, rest);
-      out << fmt::format("{:.9f}{}\n", t + 18.0, rest);
-    }
-  }
+  write_shifted_tum(dir / "sim" / "poses_tum.txt", 18.0, dir / "gps_tum.txt");
   const std::string lidar = (dir / "sim" / "lidar").string(), poses = (dir / "gps_tum.txt").string();
   const auto [rc, out] = run("info --lidar-dir " + lidar + " --poses " + poses);
   ASSERT_EQ(rc, 0) << out;
@@ -426,6 +431,33 @@ TEST(CliInputs, PcdFolderClockOffsetFoundFromTheMotionAndRigFolders) {
   const auto [twice_rc, twice] = run("info --lidar-dir " + lidar + " --lidar-dir " + lidar + " --poses " + poses);
   EXPECT_EQ(twice_rc, 2) << twice;
   EXPECT_TRUE(contains(twice, "two LiDARs are named 'lidar'")) << twice;
+  fs::remove_all(dir);
+}
+
+// A host-stamped LiDAR on UTC beside a GPS-time INS: 18 s plus 0.4 s of latency matches no
+// whole-second candidate, so the check refuses it and says what to give; with the whole seconds
+// given, the start measures the rest.
+TEST(CliInputs, WholeSecondsPlusHostLatencyNeedTheWholeSecondsGiven) {
+  const fs::path dir = fresh_dir("clock18_4");
+  const auto [sim_rc, sim_out] = run("simulate --out " + (dir / "sim").string() +
+                                     " --lidar vlp16 --azimuth-step-deg 2 --seed 3 --duration-s 40 --time-offset-s 0.4 --quiet");
+  ASSERT_EQ(sim_rc, 0) << sim_out;
+  write_shifted_tum(dir / "sim" / "poses_tum.txt", 18.0, dir / "gps_tum.txt");
+  const std::string inputs = "--lidar-dir " + (dir / "sim" / "lidar").string() + " --poses " + (dir / "gps_tum.txt").string();
+  const auto [rc, out] = run("calibrate " + inputs + " --out " + (dir / "refused").string());
+  EXPECT_EQ(rc, 2) << out;
+  EXPECT_TRUE(contains(out, "give the whole seconds as input.clock_offset_s")) << out;
+  EXPECT_FALSE(fs::exists(dir / "refused" / "extrinsic.json"));
+  {
+    std::ofstream config(dir / "clock.yaml");
+    config << "input:\n  clock_offset_s: 18\n";
+  }
+  const auto [given_rc, given] =
+      run("calibrate " + inputs + " --config " + (dir / "clock.yaml").string() + " --out " + (dir / "given").string());
+  ASSERT_EQ(given_rc, 0) << given;
+  std::ifstream result(dir / "given" / "extrinsic.json");
+  const auto j = nlohmann::json::parse(result);
+  EXPECT_NEAR(j.at("time_offset_s").get<double>(), 0.4, 0.005) << given;
   fs::remove_all(dir);
 }
 

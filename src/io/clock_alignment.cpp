@@ -353,7 +353,10 @@ ClockAlignment align_clocks(const FrameSource& frames, const PoseStream& poses, 
                          "); assuming the clocks agree. Drive turns, or give input.clock_offset_s");
     return a;
   }
-  throw_gap(a, file, "no candidate offset is clearly confirmed by the data: " + a.evidence);
+  throw_gap(a, file,
+            "no candidate offset is clearly confirmed by the data: " + a.evidence +
+                " (a LiDAR stamped by its host adds tenths of a second to a whole-second offset: give the whole seconds "
+                "as input.clock_offset_s and the start measures the rest within +-1 s)");
 }
 
 ClockAlignment given_clock_offset(const FrameSource& frames, const PoseStream& poses, double offset_s,
