@@ -55,6 +55,7 @@ TEST(TrajectoryCorrection, JointEstimateBeatsInsAsTruthOnADriftingInsDrive) {
   // Roll and pitch: the drift's tilt-like part is corrected; yaw keeps the drift's rotation mode
   // (README: about 0.009 deg at 5 mm/sqrt(s) on this drive), so it is only bounded.
   EXPECT_LT(joint.drpy_deg.head<2>().sum(), 0.5 * ins_truth.drpy_deg.head<2>().sum());
+  EXPECT_LT(joint.drpy_deg.head<2>().maxCoeff(), 0.002);  // 0.0002, 0.0006 deg since the mean is pinned
   EXPECT_LT(joint.dt_m.y(), ins_truth.dt_m.y());
   EXPECT_LT(joint.dt_m.head<2>().maxCoeff(), 0.005);
   EXPECT_LT(joint.drpy_deg.z(), 0.03);
@@ -62,10 +63,10 @@ TEST(TrajectoryCorrection, JointEstimateBeatsInsAsTruthOnADriftingInsDrive) {
 }
 
 // Stage 3 measures tz against fiducials, which are absolute: the corrected trajectory must not
-// move the map against them. OPEN BUG, hence disabled: with the corrected poses stage 3 came out
-// 0.27-0.64 m off on some drives (gate seed 21 with mode always: 644 mm; recorded drift seeds 1
-// and 3: 477 and 269 mm) while the same drive's stage 3 on the reported poses is within 2 cm.
-TEST(TrajectoryCorrection, DISABLED_CorrectedPosesKeepTheFiducialTz) {
+// move the map against them. It did (0.27-0.64 m): the corrections' mean, a world shift the map
+// cannot see, was held only by a 1 cm prior, and the data's small dependence on where the voxel
+// grid cuts the map walked it 0.73 m on this drive. The mean is now pinned (10 um).
+TEST(TrajectoryCorrection, CorrectedPosesKeepTheFiducialTz) {
   sim::SimConfig sc;
   sc.seed = 21;
   sc.azimuth_step_deg = 0.8;
