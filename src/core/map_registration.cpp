@@ -69,13 +69,19 @@ struct MapRegistration::Sweeps {
   std::vector<PlacedSweep> all;
 };
 
-MapRegistration::MapRegistration(const FrameStore& store, const std::vector<Vec3f>& map_world, double time_offset_s,
-                                 const MapRegistrationConfig& config)
-    : config_(config) {
+std::shared_ptr<const PlaneTarget> map_target(const std::vector<Vec3f>& map_world, const MapRegistrationConfig& config) {
   std::vector<Vec3> target(map_world.size());
   std::transform(map_world.begin(), map_world.end(), target.begin(), [](const Vec3f& p) { return p.cast<double>(); });
-  map_ = std::make_unique<const PlaneTarget>(std::move(target), config.normal_neighbours, config.max_plane_thickness_m);
+  return std::make_shared<const PlaneTarget>(std::move(target), config.normal_neighbours, config.max_plane_thickness_m);
+}
 
+MapRegistration::MapRegistration(const FrameStore& store, const std::vector<Vec3f>& map_world, double time_offset_s,
+                                 const MapRegistrationConfig& config)
+    : MapRegistration(store, map_target(map_world, config), time_offset_s, config) {}
+
+MapRegistration::MapRegistration(const FrameStore& store, std::shared_ptr<const PlaneTarget> map, double time_offset_s,
+                                 const MapRegistrationConfig& config)
+    : config_(config), map_(std::move(map)) {
   const std::vector<Sweep> thinned = store.thinned(spread_frames(store, config.frames, time_offset_s), config.filter);
   auto sweeps = std::make_unique<Sweeps>();
   sweeps->all.resize(thinned.size());

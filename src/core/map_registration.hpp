@@ -86,6 +86,9 @@ struct MapRegistrationResult {
   MapFit end;    ///< how the result fits it
 };
 
+/// The map as a registration target (kd-tree and normals), to share between registrations.
+std::shared_ptr<const PlaneTarget> map_target(const std::vector<Vec3f>& map_world, const MapRegistrationConfig& config);
+
 /// A LiDAR's sweeps (frames of `store`, each point placed at its own time + time_offset_s) against
 /// a world map, ready to measure how an extrinsic fits the map and to solve for the one that fits
 /// best. tz is estimated too (a map's own tz error moves it: callers use the rotation
@@ -93,6 +96,9 @@ struct MapRegistrationResult {
 class MapRegistration {
  public:
   MapRegistration(const FrameStore& store, const std::vector<Vec3f>& map_world, double time_offset_s,
+                  const MapRegistrationConfig& config = {});
+  /// The same against a map target built once (map_target) and shared by several LiDARs.
+  MapRegistration(const FrameStore& store, std::shared_ptr<const PlaneTarget> map, double time_offset_s,
                   const MapRegistrationConfig& config = {});
   ~MapRegistration();
 
@@ -102,7 +108,7 @@ class MapRegistration {
  private:
   struct Sweeps;
   MapRegistrationConfig config_;
-  std::unique_ptr<const PlaneTarget> map_;
+  std::shared_ptr<const PlaneTarget> map_;
   std::unique_ptr<const Sweeps> sweeps_;
 };
 

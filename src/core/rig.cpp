@@ -91,8 +91,11 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
   if (!c.enabled || !config.refine.joint.enabled || stores.size() < 2) return;
   const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
   const CalibrationResult& rr = rig.lidars[ref].result;
-  const std::vector<Vec3f> map = stitch_map(stores[ref], spread_frames(stores[ref], c.map_frames, rr.time_offset_s),
-                                            rr.T_ins_lidar, rr.time_offset_s, c.map_voxel_m);
+  // One target (kd-tree, normals) for every member: it is most of a check's cost.
+  const std::shared_ptr<const PlaneTarget> map = map_target(
+      stitch_map(stores[ref], spread_frames(stores[ref], c.map_frames, rr.time_offset_s), rr.T_ins_lidar,
+                 rr.time_offset_s, c.map_voxel_m),
+      c.registration);
   for (std::size_t l = 0; l < stores.size(); ++l) {
     if (l == ref) continue;
     if (progress) progress(rig.lidars[l].name + ": map check", double(l) / double(stores.size()));
@@ -459,6 +462,10 @@ void joint_repeatability(const std::vector<RefineLidar>& in, const std::vector<s
   for (int s = 0; s <= n; ++s) bounds.push_back(lo + (hi - lo) * s / n + (s == n ? 1e-6 : 0.0));
   std::vector<JointRefineResult> segments;
   std::size_t frames = 0;
+  // Each LiDAR's offset starts at the joint run's, without the coarse scan that would land there
+  // again (as a single LiDAR's segments, core/repeatability).
+  RefineConfig segment_refine = config.refine;
+  segment_refine.time_offset_scan_step_s = 0.0;
   for (int s = 0; s < n; ++s) {
     std::vector<RefineLidar> part = in;
     for (std::size_t k = 0; k < part.size(); ++k) {
@@ -466,9 +473,10 @@ void joint_repeatability(const std::vector<RefineLidar>& in, const std::vector<s
       part[k].frames = frames_in(in[k], bounds[s], bounds[s + 1]);
       part[k].T_ins_lidar_start = r.rough.T_ins_lidar;
       part[k].T_ins_lidar_start.translation().z() = r.T_ins_lidar.translation().z();
+      part[k].time_offset_start_s = r.time_offset_s;
       frames = std::max(frames, part[k].frames.size());
     }
-    segments.push_back(refine_joint(part, config.refine));
+    segments.push_back(refine_joint(part, segment_refine));
   }
   for (std::size_t k = 0; k < members.size(); ++k) {
     CalibrationResult& r = rig.lidars[members[k]].result;

@@ -83,9 +83,11 @@ RigFileLidar lidar_from_json(const std::string& name, const json& j, const std::
 
 std::string urdf_num(double v) { return fmt::format("{:.17g}", v + 0.0); }
 
-// One LiDAR's own folder: its usual files, with the rig's note in extrinsic.json.
+// One LiDAR's own folder: its usual files, with the rig's note in extrinsic.json. Its report's
+// maps are left in `maps` (start first, final last) for the rig's combined map, which shows the
+// same frames at the same extrinsics: stitched once, not twice.
 void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, const FrameStore& store, RunInfo run,
-                     const PipelineConfig& config, const RigOutputOptions& options) {
+                     const PipelineConfig& config, const RigOutputOptions& options, std::vector<MapSnapshot>& maps) {
   ensure_writable_dir(dir);
   const CalibrationResult& r = lidar.result;
   run.format_files = write_all_formats(dir, r.T_ins_lidar, FrameNames{"ins", lidar.name});
@@ -98,6 +100,7 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
     data.warnings.insert(data.warnings.begin(), lidar.joint_note);
     data.output_files.push_back({"../report.html", "the whole rig's report"});
     write_report(dir, data);
+    maps = std::move(data.maps);
   }
   json j = result_to_json(r, run);
   j["rig"] = {{"name", lidar.name}, {"joint_with", lidar.joint_with}, {"note", lidar.joint_note},
@@ -112,21 +115,18 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
-// The combined map of every LiDAR at its start and at its final extrinsic (the same frames, left-out
-// spans included, as in each LiDAR's own report); the final map's points on moving things apart.
-std::vector<RigReportMaps> rig_maps(const RigResult& rig, const std::vector<FrameStore>& stores) {
+// The combined map of every LiDAR at its start and at its final extrinsic: each LiDAR's own
+// report's first and last maps (report_data: the same frames, left-out spans included); the final
+// map's points on moving things apart.
+std::vector<RigReportMaps> rig_maps(std::vector<std::vector<MapSnapshot>> lidar_maps) {
   std::vector<RigReportMaps> maps = {{"start", {}, {}}, {"final", {}, {}}};
-  for (std::size_t l = 0; l < stores.size(); ++l) {
-    const CalibrationResult& r = rig.lidars[l].result;
-    const std::vector<std::size_t> frames = spread_frames(stores[l], 60, r.time_offset_s);
-    maps[0].p_world.push_back(stitch_map(stores[l], frames, r.init.T_ins_lidar, 0.0, 0.05));
-    if (!r.moving.mask) {
-      maps[1].p_world.push_back(stitch_map(stores[l], frames, r.T_ins_lidar, r.time_offset_s, 0.05));
-      continue;
-    }
-    SplitMap split = stitch_map_split(stores[l], frames, r.T_ins_lidar, r.time_offset_s, 0.05, *r.moving.mask);
-    maps[1].p_world.push_back(std::move(split.kept_world));
-    maps[1].p_moving_world.insert(maps[1].p_moving_world.end(), split.dropped_world.begin(), split.dropped_world.end());
+  for (std::vector<MapSnapshot>& m : lidar_maps) {
+    if (m.empty()) m.resize(1);
+    maps[0].p_world.push_back(std::move(m.front().p_world));
+    MapSnapshot& final_map = m.back();
+    maps[1].p_world.push_back(std::move(final_map.p_world));
+    maps[1].p_moving_world.insert(maps[1].p_moving_world.end(), final_map.p_moving_world.begin(),
+                                  final_map.p_moving_world.end());
   }
   return maps;
 }
@@ -199,14 +199,15 @@ std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path
                                                      const std::function<void(double)>& progress) {
   ensure_writable_dir(out_dir);
   const std::size_t n = rig.lidars.size();
+  std::vector<std::vector<MapSnapshot>> lidar_maps(n);
   for (std::size_t l = 0; l < n; ++l) {
     if (progress) progress(static_cast<double>(l) / (n + 1));
-    write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options);
+    write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options, lidar_maps[l]);
   }
   std::vector<std::filesystem::path> files;
   write_file_atomic(out_dir / kRigUrdfFile, format_rig_urdf(rig));
   files.push_back(out_dir / kRigUrdfFile);
-  if (options.report) files.push_back(write_rig_report(out_dir, rig, rig_maps(rig, stores), options.command_line));
+  if (options.report) files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line));
   write_file_atomic(out_dir / kRigJsonFile, rig_to_json(rig).dump(2) + "\n");
   files.push_back(out_dir / kRigJsonFile);
   if (progress) progress(1.0);
