@@ -23,7 +23,18 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
   PipelineConfig config;
   config.repeatability.segments = 2;
   const FrameStore store = make_frame_store(data, config);
-  const CalibrationResult r = run_calibration(store, config);
+  // Work beside the repeatability study (the report's maps) sees the final extrinsic.
+  int beside_calls = 0;
+  Iso3 T_beside = Iso3::Identity();
+  double offset_beside = NAN;
+  const CalibrationResult r = run_calibration(store, config, {}, [&](const CalibrationResult& before) {
+    ++beside_calls;
+    T_beside = before.T_ins_lidar;
+    offset_beside = before.time_offset_s;
+  });
+  EXPECT_EQ(beside_calls, 1);
+  EXPECT_TRUE(T_beside.isApprox(r.T_ins_lidar, 0.0));
+  EXPECT_EQ(offset_beside, r.time_offset_s);
   ASSERT_TRUE(r.refine.has_value());
   const ExtrinsicError rough = extrinsic_error(r.rough.T_ins_lidar, world->T_ins_lidar_true);
   const ExtrinsicError refined = extrinsic_error(r.refine->T_ins_lidar, world->T_ins_lidar_true);

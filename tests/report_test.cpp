@@ -52,7 +52,7 @@ ReportData synthetic_report() {
     d.convergence.push_back({"rough", r + 1, T, 0.2 * f + 0.03});
   }
   for (int r = 0; r < 4; ++r) d.convergence.push_back({"refine", r + 1, truth, 0.03 - 0.004 * r});
-  d.maps = {{"initial", synthetic_map(0.25, 1)}, {"rough", synthetic_map(0.04, 2)}, {"final", synthetic_map(0.0, 3)}};
+  d.maps = {{"initial", synthetic_map(0.25, 1), {}}, {"rough", synthetic_map(0.04, 2), {}}, {"final", synthetic_map(0.0, 3), {}}};
   d.fiducials = {{"F1", 0.031, 0.002, true, ""}, {"F2", 0.029, -0.001, true, ""}, {"F3", 0.2, 0.17, false, "outlier (17 cm)"}};
   d.fiducial_summary = "tz from 2 of 3 fiducials";
   d.time_offset_s = 0.0042;
@@ -173,6 +173,25 @@ TEST_F(ReportTest, SectionsAreFoundOnTheRightSurfaces) {
   const auto ground = find_ground_section(map);
   ASSERT_TRUE(ground.has_value());
   EXPECT_NEAR(ground->centre_m.z(), 0.0, 0.05);
+}
+
+// calibrate stitches each map only when it is drawn (the final first, for the framing): the same
+// pictures as from maps stitched up front, each map asked for once.
+TEST(ReportImages, MapsStitchedOnDemandGiveTheSamePictures) {
+  const ReportData data = synthetic_report();
+  const ReportImages eager = draw_report_images(data.maps);
+  std::vector<int> asked(data.maps.size(), 0);
+  const ReportImages lazy = draw_report_images(data.maps.size(), [&](std::size_t i) {
+    ++asked[i];
+    return data.maps[i];
+  });
+  EXPECT_EQ(asked, std::vector<int>(data.maps.size(), 1));
+  ASSERT_EQ(lazy.png_files.size(), eager.png_files.size());
+  EXPECT_EQ(lazy.png_files.size(), 5 * data.maps.size());  // three views, a wall and a ground section each
+  for (std::size_t k = 0; k < lazy.png_files.size(); ++k) {
+    EXPECT_EQ(lazy.png_files[k].first, eager.png_files[k].first);
+    EXPECT_TRUE(lazy.png_files[k].second == eager.png_files[k].second) << lazy.png_files[k].first;
+  }
 }
 
 TEST_F(ReportTest, RendersInHeadlessChromium) {

@@ -61,16 +61,20 @@ int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const
   run.load = input.reports.front();
   ProgressBar bar(verbosity(o));
   const FrameStore store = make_frame_store(input.lidars.front(), config);
-  const CalibrationResult result = run_calibration(store, config, bar.callback());
+  // The report's pictures need only the final extrinsic: drawn beside the repeatability study.
+  std::optional<io::ReportImages> images;
+  const BesideRepeatability draw = [&](const CalibrationResult& r) {
+    const std::vector<std::size_t> frames = io::report_frames(store, r);
+    images = io::draw_report_images(io::kReportMaps, [&](std::size_t i) { return io::report_map(r, store, frames, i); });
+  };
+  const CalibrationResult result = run_calibration(store, config, bar.callback(), o.no_report ? nullptr : draw);
 
   run.format_files = io::write_all_formats(out_dir, result.T_ins_lidar);  // calib_imu_to_velo.txt among them
   io::write_opencalib_extrinsic(out_dir / "gnss-to-lidar-extrinsic.json", result.T_ins_lidar);
-  // The stages are done: only the report's frames stay decoded (the report's maps and all of the
-  // stages' sweeps together were the run's peak memory on long drives).
-  store.forget(o.no_report ? std::vector<std::size_t>{} : io::report_frames(store, result));
-  if (!o.no_report) {
+  store.forget();
+  if (images) {
     bar.update("report", 0.0);
-    io::write_report(out_dir, io::report_data(result, store, run, config, [&](double f) { bar.update("report", f); }));
+    io::write_report(out_dir, io::report_data(result, store, run, config), *images);
     bar.update("report", 1.0);
   }
   bar.finish();

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <tbb/parallel_invoke.h>
 
 #include "core/errors.hpp"
 
@@ -138,7 +139,8 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
 }
 
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
-                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
+                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r,
+                const BesideRepeatability& beside) {
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);
   ZConfig z_config = config.z;  // a drifting INS's height error enters tz's stddev (core/tz_coupling)
@@ -151,14 +153,24 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
   if (!r.determined[2]) r.warnings.push_back(r.z.outcome.message);
 
   // 5. Repeatability: the segments start from the same start, with stage 3's tz (a wrong tz
-  // biases the horizontal lever arm, see step 3).
-  if (config.repeatability.segments > 1) {
+  // biases the horizontal lever arm, see step 3). `beside` reads r meanwhile: the study's result
+  // joins r only after both are done.
+  const bool study = config.repeatability.segments > 1;
+  RepeatabilityResult repeatability;
+  auto run_study = [&] {
+    if (!study) return;
     progress("repeatability", 0.0);
     RepeatabilityInputs in{groups, refine_frames, r.init.T_ins_lidar, r.T_ins_lidar, r.motion.max_speed_mps,
                            r.time_offset_s};
     if (r.z.determined()) in.T_ins_lidar_start.translation().z() = r.T_ins_lidar.translation().z();
-    r.repeatability = run_repeatability(placed, in, config.rough, config.refine, config.repeatability);
+    repeatability = run_repeatability(placed, in, config.rough, config.refine, config.repeatability);
     progress("repeatability", 1.0);
+  };
+  tbb::parallel_invoke(run_study, [&] {
+    if (beside) beside(r);
+  });
+  if (study) {
+    r.repeatability = std::move(repeatability);
     apply_repeatability(r.repeatability, r);
   }
   if (!r.z.determined() && r.refine) carry_tz_uncertainty(placed, refine_frames, config, r);
@@ -170,7 +182,7 @@ void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r) {
 }
 
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
-                                  const PipelineProgress& progress_in) {
+                                  const PipelineProgress& progress_in, const BesideRepeatability& beside) {
   const auto start = std::chrono::steady_clock::now();
   const PipelineProgress progress = [&](std::string_view step, double fraction) {
     if (progress_in) progress_in(step, fraction);
@@ -195,7 +207,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   if (config.run_refine) run_trajectory_correction(screened, config, progress, r);
   const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
-  run_finish(placed, groups, refine_frames, config, progress, r);  // steps 4-5
+  run_finish(placed, groups, refine_frames, config, progress, r, beside);  // steps 4-5
   add_ins_heading_error(config, r);
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);

@@ -120,14 +120,19 @@ FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& l
 /// Yaw's stddev with the INS's heading error (config.ins_heading_sigma_deg) added: the last step,
 /// after anything that compares LiDARs of one INS (their heading error is common).
 void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);
+/// Work that needs the final extrinsic but none of its stddevs (the report's maps), run beside the
+/// repeatability study, which changes only stddevs and warnings: given the result before the study.
+using BesideRepeatability = std::function<void(const CalibrationResult& r)>;
+
 /// Steps 4-5 after stage 2: stage 3 on `placed` (the store whose poses the result uses) and the
-/// repeatability study when config.repeatability asks for it.
+/// repeatability study when config.repeatability asks for it, with `beside` run alongside.
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
-                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r);
+                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r,
+                const BesideRepeatability& beside = {});
 
 /// Runs everything on the store's frames. Throws UnobservableError (with which DOFs and why) when
 /// the drive cannot determine the extrinsic; tz alone undetermined is not an error (it is reported).
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
-                                  const PipelineProgress& progress = {});
+                                  const PipelineProgress& progress = {}, const BesideRepeatability& beside = {});
 
 }  // namespace insalign

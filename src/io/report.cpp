@@ -76,80 +76,74 @@ figcaption { font-size: 13px; color: #444; margin-top: 3px; }
 pre { background: #f6f6f6; padding: 8px; overflow-x: auto; font-size: 13px; }
 )";
 
-struct SnapshotImages {
-  std::string label;
-  std::vector<std::pair<std::string, std::string>> views;  // (relative file, caption)
-  std::string wall_file, ground_file;
-  SectionStats wall, ground;
-};
-
 std::string figure(const std::string& file, const std::string& caption) {
   return fmt::format("<figure><a href=\"{0}\"><img src=\"{0}\" alt=\"{1}\"></a><figcaption>{1}</figcaption></figure>\n",
                      esc(file), esc(caption));
 }
 
-struct ReportImages {
-  std::vector<SnapshotImages> snaps;
-  std::optional<Section> wall, ground;
-};
+}  // namespace
 
-// The PNG images of every map snapshot: one framing for all, sections picked on the final map.
-ReportImages write_images(const std::filesystem::path& out_dir, const ReportData& data, ReportFiles& files) {
-  ReportImages images;
-  auto& snaps = images.snaps;
-  auto& wall = images.wall;
-  auto& ground = images.ground;
-  if (!data.maps.empty()) {
-    const auto& final_map = data.maps.back().p_world;
-    const MapFrame frame = frame_map(final_map);
-    wall = find_wall_section(final_map);
-    ground = find_ground_section(final_map);
-    // Maps render and encode independently: in parallel, then listed in map order.
-    snaps.resize(data.maps.size());
-    std::vector<ReportFiles> map_files(data.maps.size());
-    tbb::parallel_for(std::size_t{0}, data.maps.size(), [&](std::size_t i) {
-      const MapSnapshot& m = data.maps[i];
-      SnapshotImages& s = snaps[i];
-      ReportFiles& own = map_files[i];
-      s.label = m.label;
-      const std::string base = fmt::format("{}/map{}_{}", kImageDir, i, slug(m.label));
-      const std::array<std::pair<MapView, const char*>, 3> views = {
-          {{MapView::kTop, "top"}, {MapView::kFront, "front"}, {MapView::kSide, "side"}}};
-      for (const auto& [view, name] : views) {
-        const std::string rel = base + "_" + name + ".png";
-        write_png(out_dir / rel, render_map_view(m.p_world, frame, view, 900, 220, &m.p_moving_world));
-        own.images.push_back(out_dir / rel);
-        s.views.emplace_back(rel, m.label + ": " + name + " view, coloured by height" +
-                                      (m.p_moving_world.empty() ? "" : "; magenta: moving things, left out"));
-      }
-      if (wall) {
-        s.wall = section_stats(m.p_world, *wall);
-        s.wall_file = base + "_wall.png";
-        write_png(out_dir / s.wall_file,
-                  render_section(m.p_world, *wall, 250.0,
-                                 fmt::format("{}: wall {:.1f} cm", m.label, 100 * s.wall.thickness_m)));
-        own.images.push_back(out_dir / s.wall_file);
-      }
-      if (ground) {
-        s.ground = section_stats(m.p_world, *ground);
-        s.ground_file = base + "_ground.png";
-        write_png(out_dir / s.ground_file,
-                  render_section(m.p_world, *ground, 250.0,
-                                 fmt::format("{}: ground {:.1f} cm", m.label, 100 * s.ground.thickness_m)));
-        own.images.push_back(out_dir / s.ground_file);
-      }
-      own.section_thickness_m.emplace_back(wall ? s.wall.thickness_m : std::nan(""),
-                                             ground ? s.ground.thickness_m : std::nan(""));
-    });
-    for (ReportFiles& f : map_files) {
-      files.images.insert(files.images.end(), f.images.begin(), f.images.end());
-      files.section_thickness_m.insert(files.section_thickness_m.end(), f.section_thickness_m.begin(),
-                                       f.section_thickness_m.end());
-    }
+namespace {
+
+// One map's pictures: its views and sections, rendered and encoded in parallel.
+void draw_map(const MapSnapshot& m, std::size_t i, const MapFrame& frame, ReportImages& images,
+              std::vector<std::pair<std::string, std::string>>& pngs) {
+  SnapshotImages& s = images.snaps[i];
+  s.label = m.label;
+  const std::string base = fmt::format("{}/map{}_{}", kImageDir, i, slug(m.label));
+  const std::array<std::pair<MapView, const char*>, 3> views = {
+      {{MapView::kTop, "top"}, {MapView::kFront, "front"}, {MapView::kSide, "side"}}};
+  for (const auto& [view, name] : views) {
+    s.views.emplace_back(base + "_" + name + ".png", m.label + ": " + name + " view, coloured by height" +
+                                                         (m.p_moving_world.empty() ? "" : "; magenta: moving things, left out"));
   }
+  if (images.wall) s.wall_file = base + "_wall.png";
+  if (images.ground) s.ground_file = base + "_ground.png";
+  std::array<std::string, 5> png;  // top, front, side, wall, ground
+  tbb::parallel_for(0, 5, [&](int k) {
+    if (k < 3) {
+      png[k] = encode_png(render_map_view(m.p_world, frame, views[k].first, 900, 220, &m.p_moving_world));
+      return;
+    }
+    const std::optional<Section>& section = k == 3 ? images.wall : images.ground;
+    if (!section) return;
+    SectionStats& stats = k == 3 ? s.wall : s.ground;
+    stats = section_stats(m.p_world, *section);
+    png[k] = encode_png(render_section(m.p_world, *section, 250.0,
+                                       fmt::format("{}: {} {:.1f} cm", m.label, k == 3 ? "wall" : "ground",
+                                                   100 * stats.thickness_m)));
+  });
+  for (std::size_t v = 0; v < views.size(); ++v) pngs.emplace_back(s.views[v].first, std::move(png[v]));
+  if (images.wall) pngs.emplace_back(s.wall_file, std::move(png[3]));
+  if (images.ground) pngs.emplace_back(s.ground_file, std::move(png[4]));
+}
 
+}  // namespace
+
+// The final map first: its framing serves every map, and the sections are picked on it.
+ReportImages draw_report_images(std::size_t maps, const std::function<MapSnapshot(std::size_t)>& map) {
+  ReportImages images;
+  if (maps == 0) return images;
+  images.snaps.resize(maps);
+  std::vector<std::vector<std::pair<std::string, std::string>>> pngs(maps);
+  MapFrame frame;
+  {
+    const MapSnapshot final_map = map(maps - 1);
+    frame = frame_map(final_map.p_world);
+    images.wall = find_wall_section(final_map.p_world);
+    images.ground = find_ground_section(final_map.p_world);
+    draw_map(final_map, maps - 1, frame, images, pngs[maps - 1]);
+  }
+  for (std::size_t i = 0; i + 1 < maps; ++i) draw_map(map(i), i, frame, images, pngs[i]);
+  for (auto& p : pngs) std::move(p.begin(), p.end(), std::back_inserter(images.png_files));
   return images;
 }
+
+ReportImages draw_report_images(const std::vector<MapSnapshot>& maps) {
+  return draw_report_images(maps.size(), [&](std::size_t i) { return maps[i]; });
+}
+
+namespace {
 
 std::string html_result(const ReportData& data) {
   std::string h;
@@ -434,11 +428,21 @@ std::string html_output_files(const ReportData& data) {
 }  // namespace
 
 ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData& data) {
+  return write_report(out_dir, data, draw_report_images(data.maps));
+}
+
+ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData& data, const ReportImages& images) {
   ensure_writable_dir(out_dir);
   ensure_writable_dir(out_dir / kImageDir);
   ReportFiles files;
   files.html = out_dir / "report.html";
-  const ReportImages images = write_images(out_dir, data, files);
+  for (const auto& [rel, png] : images.png_files) {
+    write_file_atomic(out_dir / rel, png);
+    files.images.push_back(out_dir / rel);
+  }
+  for (const SnapshotImages& s : images.snaps)
+    files.section_thickness_m.emplace_back(images.wall ? s.wall.thickness_m : std::nan(""),
+                                           images.ground ? s.ground.thickness_m : std::nan(""));
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" + esc(data.title) +
                   "</title>\n<style>" + kStyle + "</style></head><body>\n";
   const auto now = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());

@@ -5,6 +5,7 @@
 
 #include <array>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <string>
@@ -12,6 +13,7 @@
 #include <vector>
 
 #include "core/geometry.hpp"
+#include "io/render.hpp"
 
 namespace insalign::io {
 
@@ -111,8 +113,30 @@ struct ReportFiles {
   std::vector<std::pair<double, double>> section_thickness_m;
 };
 
+/// One map snapshot's pictures: (file relative to the report, caption) per view, and the sections.
+struct SnapshotImages {
+  std::string label;
+  std::vector<std::pair<std::string, std::string>> views;
+  std::string wall_file, ground_file;
+  SectionStats wall, ground;
+};
+
+/// The report's pictures drawn and PNG-encoded in memory, nothing written: the costly part of a
+/// report, which needs only the maps (calibrate draws them beside the repeatability study).
+struct ReportImages {
+  std::vector<SnapshotImages> snaps;  ///< per map, in map order
+  std::optional<Section> wall, ground;  ///< picked on the final map
+  std::vector<std::pair<std::string, std::string>> png_files;  ///< (file relative to the report, PNG bytes)
+};
+ReportImages draw_report_images(const std::vector<MapSnapshot>& maps);
+/// The same, with map i (the final map last) stitched by `map(i)` only when it is drawn and freed
+/// after: one map's points held at a time, not all of them.
+ReportImages draw_report_images(std::size_t maps, const std::function<MapSnapshot(std::size_t)>& map);
+
 /// Writes out_dir/report.html and out_dir/report/*.png, every file atomically; the HTML last,
 /// so a report that exists is complete. Throws InputError if out_dir cannot be written.
 ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData& data);
+/// The same with the pictures already drawn (data.maps is not read).
+ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData& data, const ReportImages& images);
 
 }  // namespace insalign::io

@@ -266,11 +266,29 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
 }
 
 std::vector<std::size_t> report_frames(const FrameStore& store, const CalibrationResult& result) {
-  return spread_frames(store, 60, result.time_offset_s);
+  return spread_frames(store, 40, result.time_offset_s);
+}
+
+// The same frames stitched at each stage's extrinsic, so the thinning is visible.
+MapSnapshot report_map(const CalibrationResult& r, const FrameStore& store, const std::vector<std::size_t>& frames,
+                       std::size_t i) {
+  switch (i) {
+    case 0: return map_snapshot("start", store, frames, r.init.T_ins_lidar, 0.0, nullptr);
+    case 1: return map_snapshot("stage 1: rough", store, frames, r.rough.T_ins_lidar, 0.0, nullptr);
+    default:  // the moving things the stages left out, in magenta
+      return map_snapshot("final", store, frames, r.T_ins_lidar, r.time_offset_s, r.moving.mask.get());
+  }
+}
+
+std::vector<MapSnapshot> report_maps(const CalibrationResult& r, const FrameStore& store) {
+  const std::vector<std::size_t> frames = report_frames(store, r);
+  std::vector<MapSnapshot> maps;
+  for (std::size_t i = 0; i < kReportMaps; ++i) maps.push_back(report_map(r, store, frames, i));
+  return maps;
 }
 
 ReportData report_data(const CalibrationResult& r, const FrameStore& store, const RunInfo& run,
-                       const PipelineConfig& config, const std::function<void(double)>& progress) {
+                       const PipelineConfig& config) {
   ReportData report;
   report.T_ins_lidar = r.T_ins_lidar;
   const LoadReport& load = run.load;
@@ -347,17 +365,6 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
   report.output_files.push_back({"extrinsic.json", "the result with uncertainties and per-stage metrics"});
   report.output_files.push_back({"gnss-to-lidar-extrinsic.json", "OpenCalib JSON (T_lidar_ins)"});
 
-  // Maps: the same frames stitched at each stage's extrinsic, so the thinning is visible.
-  const std::vector<std::size_t> frames = report_frames(store, r);
-  const std::vector<std::pair<std::string, std::pair<Iso3, double>>> snapshots = {
-      {"start", {r.init.T_ins_lidar, 0.0}}, {"stage 1: rough", {r.rough.T_ins_lidar, 0.0}}, {"final", {r.T_ins_lidar, r.time_offset_s}}};
-  for (std::size_t i = 0; i < snapshots.size(); ++i) {
-    if (progress) progress(static_cast<double>(i) / snapshots.size());
-    const auto& [T, offset] = snapshots[i].second;
-    const bool final_map = i + 1 == snapshots.size();  // the moving things the stages left out, in magenta
-    report.maps.push_back(map_snapshot(snapshots[i].first, store, frames, T, offset,
-                                       final_map ? r.moving.mask.get() : nullptr));
-  }
   return report;
 }
 

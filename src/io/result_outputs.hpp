@@ -33,14 +33,22 @@ nlohmann::json determined_json(const std::array<bool, 6>& determined);
 
 nlohmann::json result_to_json(const CalibrationResult& result, const RunInfo& run);
 
-/// The frames the report's maps are stitched from (60 spread over the drive, decoded ones
-/// preferred): what the store must keep for the report once the stages are done.
+/// The frames the report's maps are stitched from: 40 spread over the drive (the maps are drawn
+/// beside the repeatability study, whose frames stay decoded meanwhile: 60 took a 4000-frame
+/// drive's peak memory past 500 MB).
 std::vector<std::size_t> report_frames(const FrameStore& store, const CalibrationResult& result);
 
-/// Tables from the result and the maps of report_frames at each stage's extrinsic (stitched from
-/// the store). Warning limits come from `config`.
+/// The report's maps: `frames` (report_frames) stitched at the start's, stage 1's and the final
+/// extrinsic (i = 0, 1, 2). They need no stddev: calibrate draws them beside the repeatability study.
+inline constexpr std::size_t kReportMaps = 3;
+MapSnapshot report_map(const CalibrationResult& result, const FrameStore& store, const std::vector<std::size_t>& frames,
+                       std::size_t i);
+/// All of them, start first.
+std::vector<MapSnapshot> report_maps(const CalibrationResult& result, const FrameStore& store);
+
+/// The report's tables from the result, without maps (report_maps). Warning limits come from `config`.
 ReportData report_data(const CalibrationResult& result, const FrameStore& store, const RunInfo& run,
-                       const PipelineConfig& config, const std::function<void(double)>& progress = {});
+                       const PipelineConfig& config);
 
 /// The terminal summary: the extrinsic with its verdicts, the stages' costs and times, warnings.
 std::string summary_text(const CalibrationResult& result, const RunInfo& run);

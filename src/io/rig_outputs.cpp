@@ -94,6 +94,7 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
   write_opencalib_extrinsic(dir / "gnss-to-lidar-extrinsic.json", r.T_ins_lidar);
   if (options.report) {
     ReportData data = report_data(r, store, run, config);
+    data.maps = report_maps(r, store);
     data.title = "insalign calibration report: LiDAR '" + lidar.name + "' of the rig";
     data.child_frame = lidar.name;
     data.command_line = options.command_line;
