@@ -38,6 +38,19 @@ double wrap_pi(double angle_rad);
 /// Orthonormalise a nearly-rotation matrix (closest rotation in the Frobenius norm).
 Mat3 nearest_rotation(const Mat3& M);
 
+/// M += q q^T on the upper triangle only: point moments are sums of these per point, and half
+/// the products do. mirror_upper(M) then gives exactly the full sums (q_i q_j == q_j q_i).
+template <int N>
+void add_outer_upper(Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double, N, 1>& q) {
+  for (int j = 0; j < N; ++j)
+    for (int i = 0; i <= j; ++i) M(i, j) += q(i) * q(j);
+}
+template <int N>
+void mirror_upper(Eigen::Matrix<double, N, N>& M) {
+  for (int j = 0; j < N; ++j)
+    for (int i = j + 1; i < N; ++i) M(i, j) = M(j, i);
+}
+
 /// Error of an estimate against a ground truth in the INS frame, as CONVENTIONS.md defines it.
 struct ExtrinsicError {
   Vec3 dt_m;          ///< |t_est - t_gt| per axis, metres

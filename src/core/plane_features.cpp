@@ -25,8 +25,9 @@ Moments moments_of(std::span<const Vec3f> points, std::span<const std::uint32_t>
   for (std::uint32_t i : indices) {
     const Vec3 p = points[i].cast<double>();
     sum += p;
-    sum_sq += p * p.transpose();
+    add_outer_upper(sum_sq, p);
   }
+  mirror_upper(sum_sq);
   const double n = static_cast<double>(indices.size());
   m.mean = sum / n;
   m.cov = sum_sq / n - m.mean * m.mean.transpose();

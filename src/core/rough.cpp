@@ -224,8 +224,9 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
       if (clusters.empty() || clusters.back().frame != f) clusters.push_back({f, Mat4::Zero()});
       Eigen::Vector4d q;
       q << 1.0, p_lidar[f][k - begin[n]].cast<double>();
-      clusters.back().M += q * q.transpose();
+      add_outer_upper(clusters.back().M, q);
     }
+    for (Cluster& c : clusters) mirror_upper(c.M);
     if (clusters.size() < min_frames) continue;
     if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
     for (auto& c : clusters) problem.clusters.push_back(c);

@@ -1,7 +1,7 @@
 #include "io/render.hpp"
 
 #include <fmt/format.h>
-#include <stb_image_write.h>  // implementation compiled into Debian's libstb
+#include <png.h>
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
@@ -10,8 +10,8 @@
 #include <cstring>
 #include <limits>
 #include <stdexcept>
-#include <unordered_map>
 
+#include "core/voxel_grid.hpp"
 #include "io/atomic_file.hpp"
 
 // Header-only bitmap font (static functions only): the labels burnt into the images.
@@ -105,11 +105,8 @@ struct CellShape {
 };
 
 constexpr double kCellM = 1.0;
-using CellKey = std::int64_t;
-CellKey cell_key(int ix, int iy, int iz) {
-  constexpr std::int64_t off = 1 << 20;
-  return ((ix + off) << 42) | ((iy + off) << 21) | (iz + off);
-}
+using CellKey = std::uint64_t;
+CellKey cell_key(int ix, int iy, int iz) { return voxel_key(VoxelCell{ix, iy, iz}); }
 // z_shift_m moves the vertical cell boundaries, so a surface lying on one (flat ground at a
 // round height) can be found in a second pass.
 std::array<int, 3> cell_index(const Vec3& p, double z_shift_m = 0.0) {
@@ -117,33 +114,55 @@ std::array<int, 3> cell_index(const Vec3& p, double z_shift_m = 0.0) {
           static_cast<int>(std::floor((p.z() + z_shift_m) / kCellM))};
 }
 
-std::unordered_map<CellKey, CellShape> cell_shapes(const std::vector<Vec3f>& p_world, std::size_t min_points,
-                                                   double z_shift_m = 0.0) {
-  std::unordered_map<CellKey, Cell> cells;
-  for (const Vec3f& pf : p_world) {
-    const Vec3 p = pf.cast<double>();
-    if (!p.allFinite()) continue;
-    const auto i = cell_index(p, z_shift_m);
-    Cell& c = cells[cell_key(i[0], i[1], i[2])];
-    ++c.n;
-    c.sum += p;
-    c.sum_sq += p * p.transpose();
+// The shapes of the cells with at least min_points, in the order their first point came (a fixed
+// order: the section finders keep the first of equal scores). Open addressing, not
+// std::unordered_map: the report's map has millions of points (0.4 s per pass with node maps).
+class CellShapes {
+ public:
+  CellShapes(const std::vector<Vec3f>& p_world, std::size_t min_points, double z_shift_m) {
+    VoxelKeyMap<std::uint32_t> slot(p_world.size() / 64);
+    std::vector<Cell> cells;
+    for (const Vec3f& pf : p_world) {
+      const Vec3 p = pf.cast<double>();
+      if (!p.allFinite()) continue;
+      const auto i = cell_index(p, z_shift_m);
+      std::uint32_t& k = slot[cell_key(i[0], i[1], i[2])];
+      if (k == 0) cells.emplace_back(), k = static_cast<std::uint32_t>(cells.size());
+      Cell& c = cells[k - 1];
+      ++c.n;
+      c.sum += p;
+      c.sum_sq += p * p.transpose();
+    }
+    std::vector<std::uint32_t> shape_of(cells.size(), 0);
+    for (std::size_t k = 0; k < cells.size(); ++k) {
+      const Cell& c = cells[k];
+      if (c.n < min_points) continue;
+      CellShape s;
+      s.n = c.n;
+      s.mean = c.sum / static_cast<double>(c.n);
+      const Mat3 cov = c.sum_sq / static_cast<double>(c.n) - s.mean * s.mean.transpose();
+      Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
+      s.l0 = eig.eigenvalues()(0);
+      s.l1 = eig.eigenvalues()(1);
+      s.normal = eig.eigenvectors().col(0);
+      shapes_.push_back(s);
+      shape_of[k] = static_cast<std::uint32_t>(shapes_.size());
+    }
+    slot.for_each([&](std::uint64_t key, std::uint32_t k) {
+      if (shape_of[k - 1] > 0) index_[key] = shape_of[k - 1];
+    });
   }
-  std::unordered_map<CellKey, CellShape> shapes;
-  for (const auto& [key, c] : cells) {
-    if (c.n < min_points) continue;
-    CellShape s;
-    s.n = c.n;
-    s.mean = c.sum / static_cast<double>(c.n);
-    const Mat3 cov = c.sum_sq / static_cast<double>(c.n) - s.mean * s.mean.transpose();
-    Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
-    s.l0 = eig.eigenvalues()(0);
-    s.l1 = eig.eigenvalues()(1);
-    s.normal = eig.eigenvectors().col(0);
-    shapes.emplace(key, s);
+  const std::vector<CellShape>& all() const { return shapes_; }
+  /// nullptr for a cell with too few points.
+  const CellShape* find(CellKey key) const {
+    const std::uint32_t* k = index_.find(key);
+    return k ? &shapes_[*k - 1] : nullptr;
   }
-  return shapes;
-}
+
+ private:
+  std::vector<CellShape> shapes_;
+  VoxelKeyMap<std::uint32_t> index_;
+};
 
 // Thin and extended: the patch is a surface, not a pole, a bush or a corner.
 bool planar(const CellShape& s) { return s.l1 > 0.03 && s.l0 < 0.02 * s.l1; }
@@ -208,16 +227,34 @@ int Image::text_width(const std::string& s, int scale) {
 
 std::string encode_png(const Image& image) {
   if (image.width <= 0 || image.height <= 0) throw std::runtime_error("encode_png: empty image");
-  // Point maps on a plain background compress best unfiltered: stb's per-row trial of all five
-  // PNG filters took twice the time for files a third larger (a 900x1063 map: 150 -> 75 ms).
-  static const bool unfiltered = (stbi_write_force_png_filter = 0, true);
-  (void)unfiltered;
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png ? png_create_info_struct(png) : nullptr;
+  if (!info) {
+    png_destroy_write_struct(&png, nullptr);
+    throw std::runtime_error("encode_png: libpng could not start");
+  }
   std::string out;
-  auto sink = [](void* context, void* data, int size) {
-    static_cast<std::string*>(context)->append(static_cast<const char*>(data), static_cast<std::size_t>(size));
-  };
-  const int ok = stbi_write_png_to_func(sink, &out, image.width, image.height, 3, image.rgb.data(), image.width * 3);
-  if (ok == 0) throw std::runtime_error("encode_png: stb_image_write failed");
+  if (setjmp(png_jmpbuf(png))) {  // libpng reports its errors by longjmp
+    png_destroy_write_struct(&png, &info);
+    throw std::runtime_error("encode_png: libpng failed");
+  }
+  png_set_write_fn(
+      png, &out,
+      [](png_structp p, png_bytep data, png_size_t size) {
+        static_cast<std::string*>(png_get_io_ptr(p))->append(reinterpret_cast<const char*>(data), size);
+      },
+      nullptr);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(image.width), static_cast<png_uint_32>(image.height), 8,
+               PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  // Point maps on a plain background: unfiltered rows and zlib's fastest level give files a fifth
+  // smaller than stb_image_write's, three times faster (15 report images: 0.35 -> 0.11 s).
+  png_set_filter(png, PNG_FILTER_TYPE_BASE, PNG_FILTER_NONE);
+  png_set_compression_level(png, 1);
+  png_write_info(png, info);
+  for (int y = 0; y < image.height; ++y)
+    png_write_row(png, const_cast<png_bytep>(image.rgb.data() + static_cast<std::size_t>(y) * image.width * 3));
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
   return out;
 }
 
@@ -319,19 +356,19 @@ Image render_map_view(const std::vector<Vec3f>& p_world, const MapFrame& frame, 
 // ---- Cross-sections ---------------------------------------------------------------------------
 
 std::optional<Section> find_wall_section(const std::vector<Vec3f>& p_world) {
-  const auto shapes = cell_shapes(p_world, 40);
+  const CellShapes shapes(p_world, 40, 0.0);
   auto vertical_plane = [](const CellShape& s) { return planar(s) && std::abs(s.normal.z()) < 0.15; };
   const CellShape* best = nullptr;
   double best_score = 0;
-  for (const auto& [key, s] : shapes) {
+  for (const CellShape& s : shapes.all()) {
     if (!vertical_plane(s)) continue;
     const auto i = cell_index(s.mean);
     // The same wall continues above: a building, not a car door or a low fence.
-    const auto above = shapes.find(cell_key(i[0], i[1], i[2] + 1));
-    if (above == shapes.end() || !vertical_plane(above->second) || std::abs(above->second.normal.dot(s.normal)) < 0.95) {
+    const CellShape* above = shapes.find(cell_key(i[0], i[1], i[2] + 1));
+    if (!above || !vertical_plane(*above) || std::abs(above->normal.dot(s.normal)) < 0.95) {
       continue;
     }
-    const double score = static_cast<double>(s.n + above->second.n);
+    const double score = static_cast<double>(s.n + above->n);
     if (score > best_score) {
       best_score = score;
       best = &s;
@@ -355,20 +392,20 @@ std::optional<Section> find_ground_section(const std::vector<Vec3f>& p_world) {
   std::optional<CellShape> best;
   double best_score = 0;
   for (double z_shift_m : {0.0, 0.5 * kCellM}) {
-    const auto shapes = cell_shapes(p_world, 40, z_shift_m);
-    for (const auto& [key, s] : shapes) {
+    const CellShapes shapes(p_world, 40, z_shift_m);
+    for (const CellShape& s : shapes.all()) {
       if (!ground(s)) continue;
       const auto i = cell_index(s.mean, z_shift_m);
       // Ground continues 2 m to either side along x (the section's extent): road, not a car roof.
       double score = static_cast<double>(s.n);
       bool extended = true;
       for (int dx : {-2, -1, 1, 2}) {
-        const auto it = shapes.find(cell_key(i[0] + dx, i[1], i[2]));
-        if (it == shapes.end() || !ground(it->second)) {
+        const CellShape* next = shapes.find(cell_key(i[0] + dx, i[1], i[2]));
+        if (!next || !ground(*next)) {
           extended = false;
           break;
         }
-        score += static_cast<double>(it->second.n);
+        score += static_cast<double>(next->n);
       }
       if (extended && score > best_score) {
         best_score = score;
