@@ -18,7 +18,7 @@ import sys
 
 STEPS = [  # outermost first: a step called inside another (stage 1 in the segments) goes to the outer
     ('repeatability', r'run_repeatability|calibrate_segment'),
-    ('report', r'report_data|write_report|write_images|io::render|encode_png|write_png'),
+    ('report', r'report_data|report_map|draw_report_images|draw_map|write_report|io::render|encode_png|write_png'),
     ('init', r'initialise_extrinsic|register_pairs|coarse_yaw|level_lidar|score_candidate'),
     ('screen', r'lidar_checks|screen_with_lidar|motion_check|map_residual_check|check_pair|align_to_map'),
     ('mask', r'find_moving_points|frame_evidence|count_evidence|ground_heights|MovingPoints'),

@@ -51,6 +51,8 @@ SplitMap stitch(const FrameStore& store, const std::vector<std::size_t>& frames,
   std::vector<std::vector<Vec3f>> placed(std::min(kBatch, frames.size())), dropped(placed.size());
   std::vector<Vec3f> batch;
   std::vector<std::uint64_t> keys;
+  std::vector<std::uint32_t> by_part;
+  std::vector<std::size_t> part_begin(seen.size() + 1), next;
   std::vector<char> keep;
   for (std::size_t first = 0; first < frames.size(); first += kBatch) {
     const std::size_t n = std::min(kBatch, frames.size() - first);
@@ -68,10 +70,18 @@ SplitMap stitch(const FrameStore& store, const std::vector<std::size_t>& frames,
     }
     keys.resize(batch.size());
     tbb::parallel_for(std::size_t{0}, batch.size(), [&](std::size_t i) { keys[i] = voxel_key(batch[i], inv); });
+    // The points of each part in point order (a counting sort by part), so that each part's
+    // thread reads its own points only, not every key of the batch.
+    std::fill(part_begin.begin(), part_begin.end(), 0);
+    for (std::uint64_t key : keys) ++part_begin[part_of(key) + 1];
+    for (std::size_t p = 1; p < part_begin.size(); ++p) part_begin[p] += part_begin[p - 1];
+    by_part.resize(keys.size());
+    next = part_begin;
+    for (std::size_t i = 0; i < keys.size(); ++i) by_part[next[part_of(keys[i])]++] = static_cast<std::uint32_t>(i);
     keep.assign(batch.size(), 0);
     tbb::parallel_for(std::size_t{0}, seen.size(), [&](std::size_t part) {
-      for (std::size_t i = 0; i < keys.size(); ++i)
-        if (part_of(keys[i]) == part && seen[part].insert(keys[i])) keep[i] = 1;
+      for (std::size_t k = part_begin[part]; k < part_begin[part + 1]; ++k)
+        if (seen[part].insert(keys[by_part[k]])) keep[by_part[k]] = 1;
     });
     for (std::size_t i = 0; i < batch.size(); ++i)
       if (keep[i]) p_world.push_back(batch[i]);
