@@ -136,6 +136,7 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
     if (cand[k].label != "init" && cand[k].score < cand[best].score) best = k;
   if (!T_init) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
+    result.start_candidate = cand[best].label;
     result.source = InitSource::kData;
     why << " No init given: chose " << cand[best].label << ".";
     return;
@@ -150,6 +151,7 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
   if (same_basin && ratio > config.override_score_ratio) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
     result.T_ins_lidar.translation().z() = T_init->translation().z();  // the data's z is a guess without fiducials
+    result.start_candidate = cand[best].label;
     result.source = InitSource::kDataNearInit;
     why << fmt::format(": same basin, init confirmed; starting from {} (with the init's z), which scores {:.3f} times "
                        "crisper.", cand[best].label, ratio);
@@ -157,6 +159,7 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
     why << ": same basin, init confirmed.";
   } else if (ratio > config.override_score_ratio) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
+    result.start_candidate = cand[best].label;
     result.source = InitSource::kDataOverridesInit;
     why << ": the data clearly prefers " << cand[best].label
         << fmt::format(" (init scores {:.3f} times worse, threshold {:.3f}); continuing from the data.", ratio,
@@ -186,6 +189,10 @@ GlobalInitResult cannot_start(const std::optional<Iso3>& T_init, const std::stri
 }
 
 }  // namespace
+
+bool start_is_near(const GlobalInitResult& init) {
+  return init.start_candidate == "data" && init.hand_eye_pairs_used > 0 && init.lever_arm_observed;
+}
 
 GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::optional<Iso3>& T_ins_lidar_init,
                                       const GlobalInitConfig& config) {

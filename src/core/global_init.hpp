@@ -87,6 +87,7 @@ struct GlobalInitResult {
   double time_offset_s = 0.0;
   CoarseTimeOffset time_offset;
   InitSource source = InitSource::kData;
+  std::string start_candidate = "init";  ///< the candidate the start is (its label: "data", "data-yaw+90", ...)
   std::string explanation;              ///< why: the steps and the scores
   std::vector<InitCandidate> candidates;
   // Diagnostics.
@@ -100,6 +101,11 @@ struct GlobalInitResult {
   int frames_loaded = 0;
   double load_s = 0.0, coarse_s = 0.0, hand_eye_s = 0.0, score_s = 0.0;  ///< wall time per phase
 };
+
+/// The start is the data's planar hand-eye solution with the lever arm observed (a turning drive):
+/// within 0.2 deg and 3.5 cm on bench/init_accuracy's drives, far inside stage 1's basin (~20 deg).
+/// Not so for an init kept as given, a hand-eye solve that failed or a drive without turns.
+bool start_is_near(const GlobalInitResult& init);
 
 /// Never throws for degenerate data: without an init, outcome kUndetermined says why the data
 /// cannot give a start; with an init the data cannot check, the init is returned (source kInit)

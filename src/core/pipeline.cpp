@@ -129,7 +129,9 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
   // Stage 1 places the sweeps with the time offset the start found (0 unless it is far from 0).
   r.time_offset_s = r.init.time_offset_s;
   FrameGroups groups = rough_frame_groups(store, config.rough, r.time_offset_s);
-  r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, r.time_offset_s, config.rough,
+  RoughConfig rough = config.rough;
+  if (rough.near_start_whole_drive_only && start_is_near(r.init)) rough.rounds = whole_drive_rounds(rough.rounds);
+  r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, r.time_offset_s, rough,
                             [&](double f) { progress("rough", f); });
   if (!stage1_may_fail) stop_if_undetermined(r.rough.outcome);
   r.T_ins_lidar = r.rough.T_ins_lidar;

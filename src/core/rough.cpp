@@ -27,6 +27,11 @@ std::vector<RoughRound> default_rough_schedule() {
   };
 }
 
+std::vector<RoughRound> whole_drive_rounds(const std::vector<RoughRound>& rounds) {
+  const auto first = std::find_if(rounds.begin(), rounds.end(), [](const RoughRound& r) { return r.window_groups <= 0; });
+  return first == rounds.end() ? rounds : std::vector<RoughRound>(first, rounds.end());
+}
+
 namespace {
 
 using Mat4 = Eigen::Matrix4d;
@@ -281,12 +286,29 @@ FrameGroups rough_frame_groups(const FrameStore& store, const RoughConfig& confi
 
 namespace {
 
-// The stage's frames, thinned, and its groups as local indices into them.
+// The stage's frames, and its groups as local indices into them.
 struct RoughFrames {
-  std::vector<Sweep> sweeps;
+  std::vector<Sweep> sweeps;  ///< thinned; left empty where no round of the schedule reads the frame
   std::vector<std::vector<std::uint32_t>> groups;
+  std::size_t loaded = 0;
 };
 
+// The windows of one round, as local frame indices: window_groups groups each (0: all), every
+// frame_stride-th frame of a group (all of it when a window is one group).
+std::vector<std::vector<std::uint32_t>> round_windows(const std::vector<std::vector<std::uint32_t>>& groups,
+                                                      const RoughRound& round) {
+  const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
+  const std::size_t stride = per_window == 1 ? 1 : static_cast<std::size_t>(std::max(1, round.frame_stride));
+  std::vector<std::vector<std::uint32_t>> windows;
+  for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
+    std::vector<std::uint32_t>& window = windows.emplace_back();
+    for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
+      for (std::size_t n = 0; n < groups[g].size(); n += stride) window.push_back(groups[g][n]);
+  }
+  return windows;
+}
+
+// Only the frames some round reads are loaded (whole-drive rounds take every other frame).
 RoughFrames load_rough_frames(const FrameStore& store, const FrameGroups& groups, const RoughConfig& config) {
   RoughFrames out;
   std::vector<std::size_t> indices;
@@ -297,7 +319,17 @@ RoughFrames load_rough_frames(const FrameStore& store, const FrameGroups& groups
       indices.push_back(i);
     }
   }
-  out.sweeps = store.thinned(indices, config.filter);
+  std::vector<char> read(indices.size(), 0);
+  for (const RoughRound& round : config.rounds)
+    for (const auto& window : round_windows(out.groups, round))
+      for (std::uint32_t k : window) read[k] = 1;
+  std::vector<std::size_t> wanted, local;
+  for (std::size_t k = 0; k < indices.size(); ++k)
+    if (read[k]) wanted.push_back(indices[k]), local.push_back(k);
+  std::vector<Sweep> thinned = store.thinned(wanted, config.filter);
+  out.sweeps.resize(indices.size());
+  for (std::size_t j = 0; j < local.size(); ++j) out.sweeps[local[j]] = std::move(thinned[j]);
+  out.loaded = wanted.size();
   return out;
 }
 
@@ -307,10 +339,14 @@ Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, 
   PlaceOptions place;
   place.per_point_time = config.deskew;
   place.time_offset_s = time_offset_s;
+  const std::vector<std::vector<std::uint32_t>> windows_frames = round_windows(frames.groups, round);
+  std::vector<std::uint32_t> in_round;
+  for (const auto& window : windows_frames) in_round.insert(in_round.end(), window.begin(), window.end());
   std::vector<std::vector<Vec3f>> p_lidar(frames.sweeps.size());
   Problem placed;
   placed.T_world_ins.resize(frames.sweeps.size());
-  tbb::parallel_for(std::size_t{0}, frames.sweeps.size(), [&](std::size_t k) {
+  tbb::parallel_for(std::size_t{0}, in_round.size(), [&](std::size_t j) {
+    const std::uint32_t k = in_round[j];
     p_lidar[k] = deskew_sweep(frames.sweeps[k], poses, T_ins_lidar, place);
     placed.T_world_ins[k] = frame_pose(frames.sweeps[k], poses, time_offset_s);
   });
@@ -323,15 +359,6 @@ Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, 
 
   Problem problem;
   problem.T_world_ins = placed.T_world_ins;
-  const auto& groups = frames.groups;
-  const std::size_t per_window = round.window_groups <= 0 ? groups.size() : static_cast<std::size_t>(round.window_groups);
-  const std::size_t stride = static_cast<std::size_t>(std::max(1, round.frame_stride));
-  std::vector<std::vector<std::uint32_t>> windows_frames;
-  for (std::size_t g0 = 0; g0 < groups.size(); g0 += per_window) {
-    std::vector<std::uint32_t>& window = windows_frames.emplace_back();
-    for (std::size_t g = g0; g < std::min(groups.size(), g0 + per_window); ++g)
-      for (std::size_t n = 0; n < groups[g].size(); n += (per_window == 1 ? 1 : stride)) window.push_back(groups[g][n]);
-  }
   // Windows are independent: built in parallel, appended in window order (the same problem as
   // building them one after the other).
   std::vector<Problem> parts(windows_frames.size());
@@ -437,7 +464,7 @@ RoughResult calibrate_rough(const FrameStore& store, const FrameGroups& groups, 
   }
 
   const RoughFrames frames = load_rough_frames(store, groups, config);
-  result.frames_used = frames.sweeps.size();
+  result.frames_used = frames.loaded;
   result.load_time_s = seconds_since(start);
   report(0.3);
 

@@ -45,6 +45,8 @@ json outcome_json(const StageOutcome& o) {
 json init_json(const GlobalInitResult& init) {
   json j = {{"outcome", outcome_json(init.outcome)},
             {"source", std::string(enum_name(init.source))},
+            {"start_candidate", init.start_candidate},
+            {"start_is_near", start_is_near(init)},  // stage 1 then runs its whole-drive rounds only
             {"explanation", init.explanation},
             {"extrinsic", extrinsic_fields(init.T_ins_lidar)},
             {"frames_loaded", init.frames_loaded},
