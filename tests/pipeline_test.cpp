@@ -33,10 +33,10 @@ TEST(Pipeline, Stage2ImprovesStage1WhenTheClocksDiffer) {
     offset_beside = before.time_offset_s;
   });
   EXPECT_EQ(beside_calls, 1);
-  // The start is the data's hand-eye solution on a turning drive: stage 1 runs its whole-drive
-  // rounds only (the local ones bring a far start into the basin).
+  // The start is the data's hand-eye solution on a turning drive: stage 1 skips its rounds of
+  // one-group windows (they bring a far start into the basin).
   EXPECT_TRUE(start_is_near(r.init)) << r.init.explanation;
-  EXPECT_EQ(r.rough.convergence.size() - (r.rough.tz_estimated ? 1 : 0), whole_drive_rounds(config.rough.rounds).size());
+  EXPECT_EQ(r.rough.convergence.size() - (r.rough.tz_estimated ? 1 : 0), multi_group_rounds(config.rough.rounds).size());
   EXPECT_TRUE(T_beside.isApprox(r.T_ins_lidar, 0.0));
   EXPECT_EQ(offset_beside, r.time_offset_s);
   ASSERT_TRUE(r.refine.has_value());

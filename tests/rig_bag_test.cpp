@@ -120,9 +120,8 @@ TEST(RigBag, TopicsCalibrateLikeFoldersFromEachLidarsOwnInit) {
     EXPECT_LT(extrinsic_error(transform_of(truth_pcd.at(name).at("T_ins_lidar")), T_true).angle_deg, 1e-9);
     const ExtrinsicError d = extrinsic_error(transform_of(rig_pcd.at("lidars").at(name).at("T_ins_lidar")), T);
     // The recording's sweeps and poses equal the folder's to float rounding; the start the data
-    // finds beside the --init (global_init kDataNearInit) carries that into the result, and
-    // stage 1 from that near start runs its whole-drive rounds only: 1.2e-5 m measured.
-    EXPECT_LE(d.dt_m.norm(), 3e-5);
+    // finds beside the --init (global_init kDataNearInit) carries that into the result: 1e-5.
+    EXPECT_LE(d.dt_m.norm(), 1e-5);
     EXPECT_LE(d.angle_deg, 1e-5);
     EXPECT_NEAR(rig_pcd.at("lidars").at(name).at("time_offset_s").get<double>(), offset, 1e-6);
   }

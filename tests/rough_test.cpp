@@ -137,16 +137,17 @@ TEST(Rough, ConvergesOnAShortReducedResolutionSimulatedDrive) {
 }
 
 }  // namespace
-// A near start skips the rounds before the first whole-drive one; a schedule without one is kept.
-TEST(RoughSchedule, WholeDriveRoundsStartAtTheFirstWholeDriveRound) {
+// A near start skips the first rounds of one-group windows; a schedule of only those is kept.
+TEST(RoughSchedule, MultiGroupRoundsStartAtTheFirstRoundOfSeveralGroups) {
   const std::vector<RoughRound> all = default_rough_schedule();
-  const std::vector<RoughRound> whole = whole_drive_rounds(all);
-  ASSERT_FALSE(whole.empty());
-  EXPECT_EQ(whole.front().window_groups, 0);
-  EXPECT_LT(whole.size(), all.size());
-  for (std::size_t k = 0; k < whole.size(); ++k) EXPECT_EQ(whole[k].root_voxel_m, all[all.size() - whole.size() + k].root_voxel_m);
+  const std::vector<RoughRound> kept = multi_group_rounds(all);
+  ASSERT_FALSE(kept.empty());
+  EXPECT_NE(kept.front().window_groups, 1);
+  EXPECT_LT(kept.size(), all.size());
+  for (std::size_t k = 0; k < kept.size(); ++k) EXPECT_EQ(kept[k].root_voxel_m, all[all.size() - kept.size() + k].root_voxel_m);
+  for (std::size_t k = 0; k < all.size() - kept.size(); ++k) EXPECT_EQ(all[k].window_groups, 1);
   const std::vector<RoughRound> local = {all.front(), all.front()};
-  EXPECT_EQ(whole_drive_rounds(local).size(), 2u);
+  EXPECT_EQ(multi_group_rounds(local).size(), 2u);
 }
 
 }  // namespace insalign

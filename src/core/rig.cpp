@@ -162,7 +162,8 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
 void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameGroups>& rough_groups,
                              const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
   if (progress) progress("screen", 0.0);
-  for (std::size_t l = 0; l < stores.size(); ++l) load_stage2_frames(stores[l], config, rig.lidars[l].result.time_offset_s);
+  for (std::size_t l = 0; l < stores.size(); ++l)
+    load_check_frames(stores[l], rough_groups[l], config, rig.lidars[l].result.time_offset_s);
   const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
   const CalibrationResult& rr = rig.lidars[ref].result;
   InsScreenResult checks = lidar_checks(stores[ref], rr.T_ins_lidar, rr.time_offset_s, config.ins_screen);

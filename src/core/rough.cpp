@@ -27,8 +27,8 @@ std::vector<RoughRound> default_rough_schedule() {
   };
 }
 
-std::vector<RoughRound> whole_drive_rounds(const std::vector<RoughRound>& rounds) {
-  const auto first = std::find_if(rounds.begin(), rounds.end(), [](const RoughRound& r) { return r.window_groups <= 0; });
+std::vector<RoughRound> multi_group_rounds(const std::vector<RoughRound>& rounds) {
+  const auto first = std::find_if(rounds.begin(), rounds.end(), [](const RoughRound& r) { return r.window_groups != 1; });
   return first == rounds.end() ? rounds : std::vector<RoughRound>(first, rounds.end());
 }
 
@@ -308,7 +308,7 @@ std::vector<std::vector<std::uint32_t>> round_windows(const std::vector<std::vec
   return windows;
 }
 
-// Only the frames some round reads are loaded (whole-drive rounds take every other frame).
+// Only the frames some round reads are loaded (rounds of several groups take every other frame).
 RoughFrames load_rough_frames(const FrameStore& store, const FrameGroups& groups, const RoughConfig& config) {
   RoughFrames out;
   std::vector<std::size_t> indices;

@@ -47,14 +47,15 @@ struct RoughConfig {
   bool always_fix_tz = false;
   bool deskew = true;                ///< use per-point times (if the sweeps have them)
   ObservabilityConfig observability{};
-  /// A start already near the answer (core/global_init: start_is_near) runs only the rounds from
-  /// the first whole-drive one (window_groups 0) on: the rounds before bring a far start into
-  /// the basin, and a near start is in it (false: the whole schedule always).
-  bool near_start_whole_drive_only = true;
+  /// A start already near the answer (core/global_init: start_is_near) skips the schedule's first
+  /// rounds of one-group windows: they bring a far start into the basin, and a near start is in
+  /// it. The rounds of several groups stay: their ten-second windows keep stage 1 (which the INS
+  /// checks use) robust to an INS jump that whole-drive rounds would spread. false: all rounds.
+  bool near_start_skips_single_group_rounds = true;
 };
 
-/// The schedule from its first whole-drive round on (all of it when there is none).
-std::vector<RoughRound> whole_drive_rounds(const std::vector<RoughRound>& rounds);
+/// The schedule from its first round whose windows hold several groups (all of it when none do).
+std::vector<RoughRound> multi_group_rounds(const std::vector<RoughRound>& rounds);
 
 template <class V>
 void visit_config(V& v, RoughRound& c) {
@@ -78,8 +79,8 @@ void visit_config(V& v, RoughConfig& c) {
   v.list("rounds", c.rounds, "the coarse-to-fine schedule, one entry per round");
   v("always_fix_tz", c.always_fix_tz, "true: keep tz at its initial value even when the drive determines it");
   v("deskew", c.deskew, "use per-point times when the sweeps have them");
-  v("near_start_whole_drive_only", c.near_start_whole_drive_only,
-    "a start from the data's hand-eye solve (lever arm observed) skips the rounds before the first whole-drive one");
+  v("near_start_skips_single_group_rounds", c.near_start_skips_single_group_rounds,
+    "a start from the data's hand-eye solve (lever arm observed) skips the first rounds of one-group windows");
   v.section("observability", c.observability);
 }
 

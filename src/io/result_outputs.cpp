@@ -46,7 +46,7 @@ json init_json(const GlobalInitResult& init) {
   json j = {{"outcome", outcome_json(init.outcome)},
             {"source", std::string(enum_name(init.source))},
             {"start_candidate", init.start_candidate},
-            {"start_is_near", start_is_near(init)},  // stage 1 then runs its whole-drive rounds only
+            {"start_is_near", start_is_near(init)},  // stage 1 then skips its one-group rounds
             {"explanation", init.explanation},
             {"extrinsic", extrinsic_fields(init.T_ins_lidar)},
             {"frames_loaded", init.frames_loaded},
