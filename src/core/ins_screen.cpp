@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 #include <Eigen/Eigenvalues>
@@ -268,26 +269,32 @@ Alignment align_to_map(const PlacedFrame& f, const MapGrid& grid, const TimeBloc
   // The planes this frame meets, each fitted once: slot[key] is its index in `planes` plus one.
   VoxelKeyMap<std::uint32_t> slot;
   std::vector<VoxelPlane> planes;
-  const auto plane_at = [&](const Vec3& p) -> const VoxelPlane& {
-    const std::uint64_t key = voxel_key(p, 1.0 / c.voxel_m);
+  const auto plane_at = [&](std::uint64_t key) -> std::uint32_t {
     std::uint32_t& k = slot[key];
     if (k == 0) {
       const MapVoxel* v = grid.find(key);
       planes.push_back(v ? allowed_plane(*v, lo, hi, c) : VoxelPlane{});
       k = static_cast<std::uint32_t>(planes.size());
     }
-    return planes[k - 1];
+    return k - 1;
   };
   Alignment a;
   const int iterations = std::max(c.iterations, 2);
   const double shrink = std::pow(c.gate_end_m / c.gate_start_m, 1.0 / (iterations - 1));
   double gate = c.gate_start_m;
+  std::vector<Vec3> p_world(f.p_lidar.size());
+  for (std::size_t i = 0; i < p_world.size(); ++i) p_world[i] = f.T_world_lidar * f.p_lidar[i];
+  // Each point's voxel and plane of the last iteration: the small steps rarely change them.
+  std::vector<std::uint64_t> last_key(p_world.size(), std::numeric_limits<std::uint64_t>::max());
+  std::vector<std::uint32_t> last_plane(p_world.size(), 0);
   for (int it = 0; it < iterations; ++it, gate *= shrink) {
     Mat3 H = Mat3::Zero();
     Vec3 g = Vec3::Zero();
-    for (const Vec3& p_lidar : f.p_lidar) {
-      const Vec3 p = f.T_world_lidar * p_lidar + a.delta_m;
-      const VoxelPlane& plane = plane_at(p);
+    for (std::size_t i = 0; i < p_world.size(); ++i) {
+      const Vec3 p = p_world[i] + a.delta_m;
+      const std::uint64_t key = voxel_key(p, 1.0 / c.voxel_m);
+      if (key != last_key[i]) last_key[i] = key, last_plane[i] = plane_at(key);
+      const VoxelPlane& plane = planes[last_plane[i]];
       if (!plane.ok) continue;
       const double r = plane.normal.dot(p - plane.centre);
       if (std::abs(r) > gate) continue;

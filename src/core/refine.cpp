@@ -200,17 +200,58 @@ struct NormalEquations {
 };
 
 
+// The stitched map's local planes and their points gathered in plane order: frame, LiDAR point
+// and time once per grouping, world position every evaluation. The Jacobian loop then reads
+// memory in sequence; gathering through point_index on every read missed the cache on four
+// scattered arrays per point, most of the loop's time.
+struct PlaneGrouping {
+  LocalPlanes lp;                      // empty: fit them at the next evaluation
+  std::vector<std::uint32_t> start;    // per plane: its first point in the arrays below
+  std::vector<std::uint16_t> frame;
+  std::vector<Vec3f> p_lidar, p_world;
+  std::vector<float> dt_s;             // 0 for a sweep without point times
+  bool empty() const { return lp.planes.empty(); }
+  std::size_t planes() const { return lp.planes.size(); }
+};
+
+void gather_plane_points(const Problem& p, PlaneGrouping& g) {
+  g.start.assign(1, 0);
+  for (const LocalPlane& plane : g.lp.planes) g.start.push_back(g.start.back() + plane.count);
+  const std::size_t n = g.start.back();
+  g.frame.resize(n), g.p_lidar.resize(n), g.dt_s.resize(n), g.p_world.resize(n);
+  tbb::parallel_for(std::size_t{0}, g.planes(), [&](std::size_t k) {
+    const LocalPlane& plane = g.lp.planes[k];
+    for (std::uint32_t i = 0; i < plane.count; ++i) {
+      const std::uint32_t idx = g.lp.point_index[plane.first + i];
+      const std::uint16_t f = p.frame_of[idx];
+      const Sweep& sweep = p.frames[f];
+      const std::size_t j = idx - p.first[f];
+      g.frame[g.start[k] + i] = f;
+      g.p_lidar[g.start[k] + i] = sweep.p_lidar[j];
+      g.dt_s[g.start[k] + i] = sweep.has_time() ? sweep.dt_s[j] : 0.0f;
+    }
+  });
+}
+
+void gather_world(const std::vector<Vec3f>& p_world, PlaneGrouping& g) {
+  tbb::parallel_for(std::size_t{0}, g.planes(), [&](std::size_t k) {
+    const LocalPlane& plane = g.lp.planes[k];
+    for (std::uint32_t i = 0; i < plane.count; ++i) g.p_world[g.start[k] + i] = p_world[g.lp.point_index[plane.first + i]];
+  });
+}
+
 // Point-to-plane normal equations of the stitched map against its own local planes: at a fixed
 // set of planes this is the gradient of the BALM smallest-eigenvalue cost.
 // Re-fits the planes of a frozen point grouping to the current map (centroid and normal only).
-void refit_planes(const std::vector<Vec3f>& p_world, LocalPlanes& lp) {
-  tbb::parallel_for(std::size_t{0}, lp.planes.size(), [&](std::size_t k) {
-    LocalPlane& plane = lp.planes[k];
-    const Vec3 origin = p_world[lp.point_index[plane.first]].cast<double>();
+void refit_planes(PlaneGrouping& g) {
+  tbb::parallel_for(std::size_t{0}, g.planes(), [&](std::size_t k) {
+    LocalPlane& plane = g.lp.planes[k];
+    const Vec3f* q = g.p_world.data() + g.start[k];
+    const Vec3 origin = q[0].cast<double>();
     Vec3 sum = Vec3::Zero();
     Mat3 sum2 = Mat3::Zero();
-    for (std::uint32_t m = plane.first; m < plane.first + plane.count; ++m) {
-      const Vec3 d = p_world[lp.point_index[m]].cast<double>() - origin;
+    for (std::uint32_t i = 0; i < plane.count; ++i) {
+      const Vec3 d = q[i].cast<double>() - origin;
       sum += d;
       sum2 += d * d.transpose();
     }
@@ -261,40 +302,39 @@ struct PlaneSums {
   }
 };
 
-// lp: the planes; empty = fit them from the current map, else keep its point grouping (a fixed
+// g: the planes; empty = fit them from the current map, else keep its point grouping (a fixed
 // grouping makes the cost smooth, so the last iterations converge instead of jittering as
 // voxels flip in and out of the planar set).
 NormalEquations build_normal_equations(const Problem& p, const States& s, const RefineConfig& config,
-                                       std::vector<Vec3f>& p_world, LocalPlanes& lp) {
+                                       std::vector<Vec3f>& p_world, PlaneGrouping& g) {
   place_all(p, s, p_world);
-  if (lp.planes.empty()) {
-    lp = fit_local_planes(p_world, plane_thickness_config(config));
-  } else {
-    refit_planes(p_world, lp);
+  const bool fit = g.empty();
+  if (fit) {
+    g.lp = fit_local_planes(p_world, plane_thickness_config(config));
+    gather_plane_points(p, g);
   }
+  gather_world(p_world, g);
+  if (!fit) refit_planes(g);
   std::vector<Knots> knots(p.frames.size());
   tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
     knots[f] = make_knots(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
   });
   const std::size_t n_lidars = p.lidars();
   tbb::combinable<NormalEquations> acc([n_lidars] { return NormalEquations(n_lidars); });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lp.planes.size(), 256), [&](const auto& r) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.planes(), 256), [&](const auto& r) {
     NormalEquations& ne = acc.local();
     PlaneSums sums(n_lidars);
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
-      const LocalPlane& plane = lp.planes[k];
+      const LocalPlane& plane = g.lp.planes[k];
       sums.start();
-      for (std::uint32_t m = plane.first; m < plane.first + plane.count; ++m) {
-        const std::uint32_t idx = lp.point_index[m];
-        const std::size_t f = p.frame_of[idx];
+      for (std::uint32_t m = g.start[k]; m < g.start[k + 1]; ++m) {
+        const std::size_t f = g.frame[m];
         const std::size_t l = p.lidar_of[f];
-        const Sweep& sweep = p.frames[f];
-        const std::size_t j = idx - p.first[f];
         const Knots& kn = knots[f];
-        const int kk = kn.nearest(sweep.has_time() ? sweep.dt_s[j] - kn.t0 : -kn.t0);
-        const Vec3 q = p_world[idx].cast<double>();
+        const int kk = kn.nearest(g.dt_s[m] - kn.t0);
+        const Vec3 q = g.p_world[m].cast<double>();
         const double res = plane.normal.dot(q - plane.centroid);
-        const Vec3 a = s[l].T_ins_lidar.linear() * sweep.p_lidar[j].cast<double>();  // rotated point, INS axes
+        const Vec3 a = s[l].T_ins_lidar.linear() * g.p_lidar[m].cast<double>();  // rotated point, INS axes
         const Vec3 m_ins = kn.R_world_ins[kk].transpose() * plane.normal;
         Vec7 J;
         J.head<3>() = m_ins;
@@ -484,12 +524,12 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
   const int n_all = kRefineParams * static_cast<int>(p.lidars());
   Eigen::MatrixXd H_active;
   double sigma2 = 0.0;
-  LocalPlanes planes;
+  PlaneGrouping planes;
   for (int it = 0; it < config.max_iterations; ++it) {
-    if (it < config.refit_iterations) planes = LocalPlanes{};
+    if (it < config.refit_iterations) planes = PlaneGrouping{};
     const NormalEquations ne = build_normal_equations(p, s, config, scratch, planes);
     ++out.evaluations;
-    out.planes = planes.planes.size();
+    out.planes = planes.planes();
     out.shared_planes = ne.shared_planes;
     const double rms = ne.n > 0 ? std::sqrt(ne.sq / static_cast<double>(ne.n)) : 0.0;
     if (it == 0) {
@@ -725,7 +765,7 @@ std::vector<JointRefineSystem> refine_joint_systems(const std::vector<RefineLida
   const Problem p = joint_problem(lidars, config, offsets_free(lidars, config), false, frames_used, points_used);
   std::vector<JointRefineSystem> out;
   std::vector<Vec3f> scratch;
-  LocalPlanes planes;
+  PlaneGrouping planes;
   for (const auto& state : states) {
     States s;
     for (const auto& [T_ins_lidar, time_offset_s] : state) s.push_back({T_ins_lidar, time_offset_s});

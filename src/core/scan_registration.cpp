@@ -31,47 +31,61 @@ struct PlaneTarget::Tree {
   KdTree index;
 };
 
-PlaneTarget::PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m)
-    : points_(std::move(points)), normals_(points_.size(), Vec3::Zero()), tree_(std::make_unique<Tree>(points_)) {
-  if (points_.empty()) return;
-  const std::size_t k = static_cast<std::size_t>(std::max(normal_neighbours, 3));
-  std::vector<std::uint32_t> idx(k);
-  std::vector<double> d2(k);
-  for (std::size_t i = 0; i < points_.size(); ++i) {
-    const std::size_t found = tree_->index.knnSearch(points_[i].data(), k, idx.data(), d2.data());
-    if (found < 3) continue;
-    Vec3 mean = Vec3::Zero();
-    for (std::size_t j = 0; j < found; ++j) mean += points_[idx[j]];
-    mean /= static_cast<double>(found);
-    Mat3 cov = Mat3::Zero();
-    for (std::size_t j = 0; j < found; ++j) {
-      const Vec3 d = points_[idx[j]] - mean;
-      cov += d * d.transpose();
-    }
-    cov /= static_cast<double>(found);
-    Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
-    if (std::sqrt(std::max(eig.eigenvalues()(0), 0.0)) > max_plane_thickness_m) continue;
-    // A patch that is a line (one dominant direction) has no reliable normal.
-    if (eig.eigenvalues()(1) < 1e-4) continue;
-    normals_[i] = eig.eigenvectors().col(0);
-  }
+PlaneTarget::PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m, NormalFit fit)
+    : points_(std::move(points)),
+      neighbours_(static_cast<std::size_t>(std::max(normal_neighbours, 3))),
+      max_thickness_m_(max_plane_thickness_m),
+      normals_(points_.size(), Vec3::Zero()),
+      fitted_(points_.size(), 0),
+      tree_(std::make_unique<Tree>(points_)) {
+  if (fit == NormalFit::kUpFront)
+    for (std::size_t i = 0; i < points_.size(); ++i) fit_normal(i);
 }
 
 PlaneTarget::~PlaneTarget() = default;
 PlaneTarget::PlaneTarget(PlaneTarget&&) noexcept = default;
 PlaneTarget& PlaneTarget::operator=(PlaneTarget&&) noexcept = default;
 
-std::optional<std::size_t> PlaneTarget::nearest_planar(const Vec3& p, double gate_m) const {
+void PlaneTarget::fit_normal(std::size_t i) const {
+  fitted_[i] = 1;
+  std::vector<std::uint32_t>& idx = knn_index_;
+  idx.resize(neighbours_), knn_d2_.resize(neighbours_);
+  const std::size_t found = tree_->index.knnSearch(points_[i].data(), neighbours_, idx.data(), knn_d2_.data());
+  if (found < 3) return;
+  Vec3 mean = Vec3::Zero();
+  for (std::size_t j = 0; j < found; ++j) mean += points_[idx[j]];
+  mean /= static_cast<double>(found);
+  Mat3 cov = Mat3::Zero();
+  for (std::size_t j = 0; j < found; ++j) {
+    const Vec3 d = points_[idx[j]] - mean;
+    cov += d * d.transpose();
+  }
+  cov /= static_cast<double>(found);
+  Eigen::SelfAdjointEigenSolver<Mat3> eig(cov);
+  if (std::sqrt(std::max(eig.eigenvalues()(0), 0.0)) > max_thickness_m_) return;
+  // A patch that is a line (one dominant direction) has no reliable normal.
+  if (eig.eigenvalues()(1) < 1e-4) return;
+  normals_[i] = eig.eigenvectors().col(0);
+}
+
+std::optional<std::size_t> PlaneTarget::nearest(const Vec3& p, double gate_m, std::optional<std::size_t> guess) const {
   if (points_.empty()) return std::nullopt;
   std::uint32_t j = 0;
   double d2 = 0.0;
   nanoflann::KNNResultSet<double, std::uint32_t> nearest(1);
   nearest.init(&j, &d2);
-  // The gate as the initial worst distance: branches beyond it are never searched (the same
-  // answer as the nearest point anywhere, then gated, at a fraction of the cost for outliers).
+  // The gate (or the guess's distance, if closer) as the initial worst distance: branches beyond
+  // it are never searched. The same answer as the nearest point anywhere, then gated, at a
+  // fraction of the cost.
   d2 = gate_m * gate_m;
+  const double guess_d2 = guess ? (points_[*guess] - p).squaredNorm() : d2;
+  const bool guess_inside = guess_d2 < d2;
+  if (guess_inside) d2 = guess_d2;
   tree_->index.findNeighbors(nearest, p.data(), nanoflann::SearchParams());
-  if (nearest.size() < 1 || normals_[j].isZero()) return std::nullopt;
+  if (nearest.size() < 1) {
+    if (!guess_inside) return std::nullopt;
+    j = static_cast<std::uint32_t>(*guess);
+  }
   return j;
 }
 
@@ -101,7 +115,9 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
   result.T_target_source = T_target_source_init;
   if (target.size() < 10 || source.empty()) return result;
 
-  const PlaneTarget planes(target, config.normal_neighbours, config.max_plane_thickness_m);
+  const PlaneTarget planes(target, config.normal_neighbours, config.max_plane_thickness_m, NormalFit::kOnDemand);
+  // Each source point's last match: the next iteration's search starts from it.
+  std::vector<std::optional<std::size_t>> last(source.size());
 
   const int n_iter = std::max(config.max_iterations, 1);
   const double shrink = std::pow(config.max_corr_dist_end_m / config.max_corr_dist_start_m,
@@ -112,9 +128,11 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
   for (int iter = 0; iter < n_iter; ++iter) {
     // Associate each source point with its nearest target point inside the gate.
     std::vector<Vec3> p_source, q_target, n_target;
-    for (const Vec3& p_s : source) {
-      const std::optional<std::size_t> j = planes.nearest_planar(T * p_s, gate_m);
-      if (!j) continue;
+    for (std::size_t i = 0; i < source.size(); ++i) {
+      const Vec3& p_s = source[i];
+      const std::optional<std::size_t> j = planes.nearest(T * p_s, gate_m, last[i]);
+      last[i] = j;
+      if (!j || planes.normal(*j).isZero()) continue;
       p_source.push_back(p_s);
       q_target.push_back(planes.point(*j));
       n_target.push_back(planes.normal(*j));

@@ -3,6 +3,7 @@
 // target it associates with (also used to register a LiDAR's sweeps to another's map).
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -34,25 +35,49 @@ struct ScanRegistrationResult {
   double min_information = 0.0;
 };
 
+/// When a PlaneTarget fits its normals.
+enum class NormalFit {
+  kUpFront,   ///< all in the constructor: the target may be shared between threads
+  kOnDemand,  ///< each on first use (a scan-to-scan ICP meets a fraction of the target's points);
+              ///< the same normals, but the target must then stay in one thread
+};
+
 /// A target cloud ready for point-to-plane association: a kd-tree and, per point, the normal of
 /// its k nearest neighbours (none where that patch is thicker than max_plane_thickness_m or a line).
 class PlaneTarget {
  public:
-  PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m);
+  PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double max_plane_thickness_m,
+              NormalFit fit = NormalFit::kUpFront);
   ~PlaneTarget();
   PlaneTarget(PlaneTarget&&) noexcept;
   PlaneTarget& operator=(PlaneTarget&&) noexcept;
 
+  /// The target point nearest to p within gate_m. `guess`: a point that is probably the nearest
+  /// (the last iteration's); the search then only looks closer than it, and the answer is the same.
+  std::optional<std::size_t> nearest(const Vec3& p, double gate_m, std::optional<std::size_t> guess = std::nullopt) const;
   /// The target point nearest to p within gate_m, if it has a normal.
-  std::optional<std::size_t> nearest_planar(const Vec3& p, double gate_m) const;
+  std::optional<std::size_t> nearest_planar(const Vec3& p, double gate_m) const {
+    const std::optional<std::size_t> j = nearest(p, gate_m);
+    return j && !normal(*j).isZero() ? j : std::nullopt;
+  }
   const Vec3& point(std::size_t i) const { return points_[i]; }
-  const Vec3& normal(std::size_t i) const { return normals_[i]; }
+  /// Zero where point i has no normal.
+  const Vec3& normal(std::size_t i) const {
+    if (!fitted_[i]) fit_normal(i);
+    return normals_[i];
+  }
   std::size_t size() const { return points_.size(); }
 
  private:
   struct Tree;
+  void fit_normal(std::size_t i) const;
   std::vector<Vec3> points_;
-  std::vector<Vec3> normals_;
+  std::size_t neighbours_;
+  double max_thickness_m_;
+  mutable std::vector<Vec3> normals_;
+  mutable std::vector<char> fitted_;
+  mutable std::vector<std::uint32_t> knn_index_;  // fit_normal's scratch
+  mutable std::vector<double> knn_d2_;
   std::unique_ptr<Tree> tree_;
 };
 
