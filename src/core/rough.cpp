@@ -89,6 +89,9 @@ struct PlaneScratch {
   std::vector<Mat3> A;
   std::vector<Vec3> b;
   std::vector<double> w, e;  // Cauchy weights, squared distances per cluster
+  std::vector<Vec3> s1;      // per cluster: its points' world sum and second moment (the same in
+  std::vector<Mat3> s2;      // both fits, so computed once)
+  std::vector<Eigen::Vector4d> h;  // per cluster: r = h^T [1; p] at the final plane
 };
 
 struct PlaneFit {
@@ -100,18 +103,23 @@ struct PlaneFit {
 PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, PlaneScratch& s) {
   PlaneFit f;
   const std::size_t nc = s.A.size();
+  s.s1.resize(nc), s.s2.resize(nc), s.h.resize(nc);
+  for (std::size_t c = 0; c < nc; ++c) {
+    const Mat4& M = problem.clusters[c0 + c].M;
+    const double n = M(0, 0);
+    const Vec3 As1 = s.A[c] * M.block<3, 1>(1, 0);
+    s.s1[c] = n * s.b[c] + As1;
+    s.s2[c] = s.A[c] * M.block<3, 3>(1, 1) * s.A[c].transpose() + As1 * s.b[c].transpose() + s.b[c] * As1.transpose() +
+              n * s.b[c] * s.b[c].transpose();
+  }
   for (int pass = 0; pass < 2; ++pass) {
     double N = 0.0;
     Vec3 S1 = Vec3::Zero();
     Mat3 S2 = Mat3::Zero();
     for (std::size_t c = 0; c < nc; ++c) {
-      const Mat4& M = problem.clusters[c0 + c].M;
-      const double n = M(0, 0);
-      const Vec3 As1 = s.A[c] * M.block<3, 1>(1, 0);
-      N += s.w[c] * n;
-      S1 += s.w[c] * (n * s.b[c] + As1);
-      S2 += s.w[c] * (s.A[c] * M.block<3, 3>(1, 1) * s.A[c].transpose() + As1 * s.b[c].transpose() +
-                      s.b[c] * As1.transpose() + n * s.b[c] * s.b[c].transpose());
+      N += s.w[c] * problem.clusters[c0 + c].M(0, 0);
+      S1 += s.w[c] * s.s1[c];
+      S2 += s.w[c] * s.s2[c];
     }
     f.centre = S1 / N;
     const Eigen::SelfAdjointEigenSolver<Mat3> eig(S2 / N - f.centre * f.centre.transpose());
@@ -119,7 +127,7 @@ PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, P
     f.u = eig.eigenvectors().col(1);
     f.v = eig.eigenvectors().col(2);
     for (std::size_t c = 0; c < nc; ++c) {
-      Eigen::Vector4d h;
+      Eigen::Vector4d& h = s.h[c];
       h << f.normal.dot(s.b[c] - f.centre), s.A[c].transpose() * f.normal;
       const Mat4& M = problem.clusters[c0 + c].M;
       s.e[c] = h.dot(M * h);
@@ -146,8 +154,7 @@ void accumulate_plane(const Problem& problem, std::size_t c0, const Mat3& R, dou
     acc.weighted_n += s.w[c] * n;
     if (!derivatives) continue;
     const Mat3& R_wi = problem.T_world_ins[problem.clusters[c0 + c].frame].linear();
-    Eigen::Vector4d h;
-    h << f.normal.dot(s.b[c] - f.centre), s.A[c].transpose() * f.normal;
+    const Eigen::Vector4d& h = s.h[c];
     // Per point r = h^T [1; p]. Pose Jacobian (rho, w) = P [1; p], plane Jacobian = L [1; p].
     const Vec3 m = R_wi.transpose() * f.normal;
     Mat64 P = Mat64::Zero();
