@@ -80,8 +80,12 @@ SplitMap stitch(const FrameStore& store, const std::vector<std::size_t>& frames,
     for (std::size_t i = 0; i < keys.size(); ++i) by_part[next[part_of(keys[i])]++] = static_cast<std::uint32_t>(i);
     keep.assign(batch.size(), 0);
     tbb::parallel_for(std::size_t{0}, seen.size(), [&](std::size_t part) {
-      for (std::size_t k = part_begin[part]; k < part_begin[part + 1]; ++k)
+      constexpr std::size_t kAhead = 16;  // slots prefetched this far ahead (a map's set misses the cache)
+      const std::size_t end = part_begin[part + 1];
+      for (std::size_t k = part_begin[part]; k < end; ++k) {
+        if (k + kAhead < end) seen[part].prefetch(keys[by_part[k + kAhead]]);
         if (seen[part].insert(keys[by_part[k]])) keep[by_part[k]] = 1;
+      }
     });
     for (std::size_t i = 0; i < batch.size(); ++i)
       if (keep[i]) p_world.push_back(batch[i]);
