@@ -217,19 +217,21 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
   std::vector<std::size_t> begin;
   std::size_t total = 0;
   for (std::uint32_t f : frames) begin.push_back(total), total += p_lidar[f].size();
-  std::vector<Vec3f> p_world;
-  p_world.reserve(total);
-  for (std::uint32_t f : frames) {
+  // Frames and planes in parallel (a whole-drive window is one window: its round had a core idle).
+  std::vector<Vec3f> p_world(total);
+  tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t n) {
+    const std::uint32_t f = frames[n];
     const Eigen::Isometry3f T_world_lidar = (placed.T_world_ins[f] * T_ins_lidar).cast<float>();
-    for (const Vec3f& p : p_lidar[f]) p_world.push_back(T_world_lidar * p);
-  }
+    for (std::size_t i = 0; i < p_lidar[f].size(); ++i) p_world[begin[n] + i] = T_world_lidar * p_lidar[f][i];
+  });
   std::vector<Plane> planes = extract_planes(p_world, plane_config);
   p_world = {};
-  for (Plane& plane : planes) {
-    std::vector<std::uint32_t>& members = plane.point_indices;  // ascending: frame by frame
+  std::vector<std::vector<Cluster>> per_plane(planes.size());
+  tbb::parallel_for(std::size_t{0}, planes.size(), [&](std::size_t j) {
+    std::vector<std::uint32_t>& members = planes[j].point_indices;  // ascending: frame by frame
     if (!std::is_sorted(members.begin(), members.end())) std::sort(members.begin(), members.end());
-    std::vector<Cluster> clusters;
-    std::size_t n = 0;  // the window frame of the current member
+    std::vector<Cluster>& clusters = per_plane[j];
+    std::size_t n = std::upper_bound(begin.begin(), begin.end(), members.front()) - begin.begin() - 1;
     for (std::uint32_t k : members) {
       while (n + 1 < begin.size() && begin[n + 1] <= k) ++n;
       const std::uint32_t f = frames[n];
@@ -239,11 +241,13 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
       add_outer_upper(clusters.back().M, q);
     }
     for (Cluster& c : clusters) mirror_upper(c.M);
-    if (clusters.size() < min_frames) continue;
+  });
+  for (std::size_t j = 0; j < planes.size(); ++j) {
+    if (per_plane[j].size() < min_frames) continue;
     if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
-    for (auto& c : clusters) problem.clusters.push_back(c);
+    problem.clusters.insert(problem.clusters.end(), per_plane[j].begin(), per_plane[j].end());
     problem.plane_begin.push_back(problem.clusters.size());
-    problem.residuals += members.size();
+    problem.residuals += planes[j].point_indices.size();
   }
 }
 
