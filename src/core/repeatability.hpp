@@ -19,9 +19,10 @@ struct RepeatabilityConfig {
   int segments = 3;            ///< disjoint time segments; 0 or 1: off
   /// Stage-1 rounds a segment runs: the last ones of the schedule, from the full run's result.
   /// The early rounds only bring a far start into the basin, which the full run has done; each
-  /// segment still settles on its own data (planes refound, stage 2 from its stage 1). 0: the
-  /// whole schedule from the run's start (3x the stage-1 work).
-  int rough_rounds = 2;
+  /// segment still settles on its own data (planes refound, stage 2 from its stage 1). The last
+  /// round alone gave the same spread as the last two to three digits on the table1 drive
+  /// (bench/RESULTS.md). 0: the whole schedule from the run's start (3x the stage-1 work).
+  int rough_rounds = 1;
   double warn_rot_deg = 0.1;   ///< a spread (max - min) above this is a warning
   double warn_trans_m = 0.02;
 };
