@@ -30,15 +30,19 @@ struct System {
   }
 };
 
+// Each point's nearest map point of the last iteration, per sweep: the next search starts from it.
+using LastMatches = std::vector<std::vector<std::optional<std::size_t>>>;
+
 System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_ins_lidar, double gate_m,
-                    double huber_m) {
+                    double huber_m, std::vector<std::optional<std::size_t>>& last) {
   System sys;
+  last.resize(s.p_lidar.size());
   for (std::size_t i = 0; i < s.p_lidar.size(); ++i) {
     const Vec3 p_ins = T_ins_lidar * s.p_lidar[i];
     const Vec3 p_world = s.T_world_ins[i] * p_ins;
     ++sys.fit.points;
-    const std::optional<std::size_t> j = map.nearest_planar(p_world, gate_m);
-    if (!j) continue;
+    const std::optional<std::size_t> j = last[i] = map.nearest(p_world, gate_m, last[i]);
+    if (!j || map.normal(*j).isZero()) continue;
     const Vec3 n_ins = s.T_world_ins[i].linear().transpose() * map.normal(*j);
     const double r = map.normal(*j).dot(p_world - map.point(*j));
     Vec6 J;
@@ -53,10 +57,11 @@ System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_
 }
 
 System total_system(const std::vector<PlacedSweep>& sweeps, const PlaneTarget& map, const Iso3& T_ins_lidar,
-                    double gate_m, double huber_m) {
+                    double gate_m, double huber_m, LastMatches& last) {
   std::vector<System> per(sweeps.size());
+  last.resize(sweeps.size());
   tbb::parallel_for(std::size_t{0}, sweeps.size(),
-                    [&](std::size_t k) { per[k] = sweep_system(sweeps[k], map, T_ins_lidar, gate_m, huber_m); });
+                    [&](std::size_t k) { per[k] = sweep_system(sweeps[k], map, T_ins_lidar, gate_m, huber_m, last[k]); });
   System sum;
   for (const System& s : per) sum.add(s);
   sum.fit.rms_m = sum.fit.inliers ? std::sqrt(sum.sum_sq / double(sum.fit.inliers)) : 0.0;
@@ -101,18 +106,23 @@ MapRegistration::MapRegistration(const FrameStore& store, std::shared_ptr<const 
 MapRegistration::~MapRegistration() = default;
 
 MapFit MapRegistration::fit(const Iso3& T_ins_lidar) const {
-  return total_system(sweeps_->all, *map_, T_ins_lidar, config_.gate_end_m, config_.huber_m).fit;
+  LastMatches none;
+  return total_system(sweeps_->all, *map_, T_ins_lidar, config_.gate_end_m, config_.huber_m, none).fit;
 }
 
 MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) const {
   MapRegistrationResult result;
-  result.start = fit(T_ins_lidar_start);
+  LastMatches last;
+  const auto fit_at = [&](const Iso3& T) {
+    return total_system(sweeps_->all, *map_, T, config_.gate_end_m, config_.huber_m, last).fit;
+  };
+  result.start = fit_at(T_ins_lidar_start);
   const int n_iter = std::max(config_.iterations, 1);
   const double shrink = std::pow(config_.gate_end_m / config_.gate_start_m, 1.0 / std::max(n_iter / 2 - 1, 1));
   double gate_m = config_.gate_start_m;
   Iso3 T = T_ins_lidar_start;
   for (int iter = 0; iter < n_iter; ++iter) {
-    const System sys = total_system(sweeps_->all, *map_, T, gate_m, config_.huber_m);
+    const System sys = total_system(sweeps_->all, *map_, T, gate_m, config_.huber_m, last);
     result.iterations = iter + 1;
     if (sys.fit.inliers < std::max<std::size_t>(config_.min_inliers, 6)) break;
     const Vec6 delta = -(sys.H + 1e-6 * Mat6::Identity()).ldlt().solve(sys.g);
@@ -127,7 +137,7 @@ MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) cons
       break;
   }
   result.T_ins_lidar = T;
-  result.end = fit(T);
+  result.end = fit_at(T);
   result.converged = result.end.inliers >= config_.min_inliers;
   return result;
 }
