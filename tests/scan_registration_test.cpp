@@ -68,5 +68,34 @@ TEST(ScanRegistration, VoxelDownsampleKeepsOnePointPerVoxel) {
   EXPECT_NEAR(out[0].x(), 0.2, 1e-12);  // centroid of the first voxel
 }
 
+
+// The memo skips searches only when their answer is certain: a point drifting in small and large
+// steps (as across ICP iterations) with a shrinking gate gets exactly what a fresh search gets,
+// and most searches are skipped.
+TEST(ScanRegistration, NearestWithMemoAnswersAsAFreshSearch) {
+  std::mt19937 rng(7);
+  const std::vector<Vec3> target = voxel_centroids(plane_scene(rng), 0.3);
+  const PlaneTarget planes(target, 8, 0.08);
+  std::normal_distribution<double> step(0.0, 1.0);
+  std::uniform_real_distribution<double> u(-20.0, 20.0);
+  int asked = 0, same = 0;
+  for (int point = 0; point < 300; ++point) {
+    Vec3 p(u(rng), u(rng), 3.0 + 0.1 * u(rng));
+    NearestMemo memo;
+    for (int it = 0; it < 20; ++it) {
+      const double gate_m = std::max(0.3, 1.5 * std::pow(0.85, it));
+      const double scale = it < 5 ? 0.2 : 0.002;  // large steps first, then small ones
+      p += scale * Vec3(step(rng), step(rng), step(rng));
+      NearestMemo fresh;
+      const std::optional<std::size_t> expected = planes.nearest(p, gate_m, fresh);
+      const Vec3 before = memo.p_searched;
+      EXPECT_EQ(planes.nearest(p, gate_m, memo), expected) << "point " << point << " iteration " << it;
+      ++asked;
+      same += before == memo.p_searched;  // the memo's search was skipped
+    }
+  }
+  EXPECT_GT(same, asked / 2);
+}
+
 }  // namespace
 }  // namespace insalign

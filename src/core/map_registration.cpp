@@ -30,18 +30,18 @@ struct System {
   }
 };
 
-// Each point's nearest map point of the last iteration, per sweep: the next search starts from it.
-using LastMatches = std::vector<std::vector<std::optional<std::size_t>>>;
+// Each point's last nearest-neighbour search, per sweep (PlaneTarget::nearest).
+using LastMatches = std::vector<std::vector<NearestMemo>>;
 
 System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_ins_lidar, double gate_m,
-                    double huber_m, std::vector<std::optional<std::size_t>>& last) {
+                    double huber_m, std::vector<NearestMemo>& last) {
   System sys;
   last.resize(s.p_lidar.size());
   for (std::size_t i = 0; i < s.p_lidar.size(); ++i) {
     const Vec3 p_ins = T_ins_lidar * s.p_lidar[i];
     const Vec3 p_world = s.T_world_ins[i] * p_ins;
     ++sys.fit.points;
-    const std::optional<std::size_t> j = last[i] = map.nearest(p_world, gate_m, last[i]);
+    const std::optional<std::size_t> j = map.nearest(p_world, gate_m, last[i]);
     if (!j || map.normal(*j).isZero()) continue;
     const Vec3 n_ins = s.T_world_ins[i].linear().transpose() * map.normal(*j);
     const double r = map.normal(*j).dot(p_world - map.point(*j));

@@ -68,25 +68,42 @@ void PlaneTarget::fit_normal(std::size_t i) const {
   normals_[i] = eig.eigenvectors().col(0);
 }
 
-std::optional<std::size_t> PlaneTarget::nearest(const Vec3& p, double gate_m, std::optional<std::size_t> guess) const {
-  if (points_.empty()) return std::nullopt;
-  std::uint32_t j = 0;
+namespace {
+// Squared distance summed as nanoflann sums it, so that a gate test here agrees with its search.
+double distance2(const Vec3& a, const Vec3& b) {
   double d2 = 0.0;
-  nanoflann::KNNResultSet<double, std::uint32_t> nearest(1);
-  nearest.init(&j, &d2);
-  // The gate (or the guess's distance, if closer) as the initial worst distance: branches beyond
-  // it are never searched. The same answer as the nearest point anywhere, then gated, at a
-  // fraction of the cost.
-  d2 = gate_m * gate_m;
-  const double guess_d2 = guess ? (points_[*guess] - p).squaredNorm() : d2;
-  const bool guess_inside = guess_d2 < d2;
-  if (guess_inside) d2 = guess_d2;
-  tree_->index.findNeighbors(nearest, p.data(), nanoflann::SearchParams());
-  if (nearest.size() < 1) {
-    if (!guess_inside) return std::nullopt;
-    j = static_cast<std::uint32_t>(*guess);
+  for (int i = 0; i < 3; ++i) d2 += (a[i] - b[i]) * (a[i] - b[i]);
+  return d2;
+}
+}  // namespace
+
+std::optional<std::size_t> PlaneTarget::nearest(const Vec3& p, double gate_m, NearestMemo& memo) const {
+  if (points_.empty()) return std::nullopt;
+  const double gate2 = gate_m * gate_m;
+  if (!std::isnan(memo.p_searched.x())) {
+    // Every target point but memo.index is at least `clear` from p (triangle inequality; the
+    // margin covers rounding).
+    const double clear = memo.clear_m - (p - memo.p_searched).norm() - 1e-9;
+    if (memo.index == NearestMemo::kNoIndex) {
+      if (gate_m <= clear) return std::nullopt;
+    } else {
+      const double d2 = distance2(points_[memo.index], p);
+      if (std::sqrt(d2) < clear) return d2 < gate2 ? std::optional<std::size_t>(memo.index) : std::nullopt;
+    }
   }
-  return j;
+  // The two nearest within the gate: the second bounds how far p may move before the next search.
+  // The gate as the initial worst distance: branches beyond it are never searched.
+  std::uint32_t index[2] = {NearestMemo::kNoIndex, NearestMemo::kNoIndex};
+  double d2[2] = {0.0, 0.0};
+  nanoflann::KNNResultSet<double, std::uint32_t> found(2);
+  found.init(index, d2);
+  d2[1] = gate2;
+  tree_->index.findNeighbors(found, p.data(), nanoflann::SearchParams());
+  memo.p_searched = p;
+  memo.index = found.size() >= 1 ? index[0] : NearestMemo::kNoIndex;
+  memo.clear_m = found.size() == 2 ? std::sqrt(d2[1]) : gate_m;
+  if (found.size() < 1) return std::nullopt;
+  return index[0];
 }
 
 PointToPlaneSystem point_to_plane_system(const std::vector<Vec3>& p_source, const std::vector<Vec3>& q_target,
@@ -116,8 +133,7 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
   if (target.size() < 10 || source.empty()) return result;
 
   const PlaneTarget planes(target, config.normal_neighbours, config.max_plane_thickness_m, NormalFit::kOnDemand);
-  // Each source point's last match: the next iteration's search starts from it.
-  std::vector<std::optional<std::size_t>> last(source.size());
+  std::vector<NearestMemo> memo(source.size());  // each source point's last search
 
   const int n_iter = std::max(config.max_iterations, 1);
   const double shrink = std::pow(config.max_corr_dist_end_m / config.max_corr_dist_start_m,
@@ -130,8 +146,7 @@ ScanRegistrationResult register_scans(const std::vector<Vec3>& target, const std
     std::vector<Vec3> p_source, q_target, n_target;
     for (std::size_t i = 0; i < source.size(); ++i) {
       const Vec3& p_s = source[i];
-      const std::optional<std::size_t> j = planes.nearest(T * p_s, gate_m, last[i]);
-      last[i] = j;
+      const std::optional<std::size_t> j = planes.nearest(T * p_s, gate_m, memo[i]);
       if (!j || planes.normal(*j).isZero()) continue;
       p_source.push_back(p_s);
       q_target.push_back(planes.point(*j));

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -35,6 +36,16 @@ struct ScanRegistrationResult {
   double min_information = 0.0;
 };
 
+/// A point's last nearest-neighbour search, kept between iterations: while the point has moved
+/// less than the gap its search left (to the second nearest target point, or to the gate), the
+/// next search is certain to give the same answer and is skipped.
+struct NearestMemo {
+  Vec3 p_searched = Vec3::Constant(std::numeric_limits<double>::quiet_NaN());  ///< NaN: none yet
+  double clear_m = 0.0;  ///< no target point but `index` lay closer than this to p_searched
+  std::uint32_t index = kNoIndex;  ///< the nearest within the gate then, or kNoIndex
+  static constexpr std::uint32_t kNoIndex = std::numeric_limits<std::uint32_t>::max();
+};
+
 /// When a PlaneTarget fits its normals.
 enum class NormalFit {
   kUpFront,   ///< all in the constructor: the target may be shared between threads
@@ -52,12 +63,13 @@ class PlaneTarget {
   PlaneTarget(PlaneTarget&&) noexcept;
   PlaneTarget& operator=(PlaneTarget&&) noexcept;
 
-  /// The target point nearest to p within gate_m. `guess`: a point that is probably the nearest
-  /// (the last iteration's); the search then only looks closer than it, and the answer is the same.
-  std::optional<std::size_t> nearest(const Vec3& p, double gate_m, std::optional<std::size_t> guess = std::nullopt) const;
+  /// The target point nearest to p within gate_m (nearer than it). `memo`: the same source point's
+  /// last search, updated; the answer is the same as without it.
+  std::optional<std::size_t> nearest(const Vec3& p, double gate_m, NearestMemo& memo) const;
   /// The target point nearest to p within gate_m, if it has a normal.
   std::optional<std::size_t> nearest_planar(const Vec3& p, double gate_m) const {
-    const std::optional<std::size_t> j = nearest(p, gate_m);
+    NearestMemo memo;
+    const std::optional<std::size_t> j = nearest(p, gate_m, memo);
     return j && !normal(*j).isZero() ? j : std::nullopt;
   }
   const Vec3& point(std::size_t i) const { return points_[i]; }
