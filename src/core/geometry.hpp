@@ -45,6 +45,15 @@ void add_outer_upper(Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double,
   for (int j = 0; j < N; ++j)
     for (int i = 0; i <= j; ++i) M(i, j) += q(i) * q(j);
 }
+/// M += w q q^T on the upper triangle, as Eigen's selfadjointView<Upper>().rankUpdate(q, w) sums it
+/// (the same bits), without its run-time sized loops: a point's normal equations are made of these.
+template <int N>
+void add_weighted_outer_upper(Eigen::Matrix<double, N, N>& M, const Eigen::Matrix<double, N, 1>& q, double w) {
+  for (int j = 0; j < N; ++j) {
+    const double wq = w * q(j);
+    for (int i = 0; i <= j; ++i) M(i, j) += wq * q(i);
+  }
+}
 template <int N>
 void mirror_upper(Eigen::Matrix<double, N, N>& M) {
   for (int j = 0; j < N; ++j)

@@ -284,7 +284,7 @@ struct PlaneSums {
       JJ[l].setZero();
       J[l].setZero();
     }
-    JJ[l].selfadjointView<Eigen::Upper>().rankUpdate(j, weight);
+    add_weighted_outer_upper(JJ[l], j, weight);
     J[l] += weight * j;
     w += weight;
   }
