@@ -229,6 +229,7 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
   std::vector<std::vector<Cluster>> per_plane(planes.size());
   tbb::parallel_for(std::size_t{0}, planes.size(), [&](std::size_t j) {
     std::vector<std::uint32_t>& members = planes[j].point_indices;  // ascending: frame by frame
+    if (members.empty()) return;
     if (!std::is_sorted(members.begin(), members.end())) std::sort(members.begin(), members.end());
     std::vector<Cluster>& clusters = per_plane[j];
     std::size_t n = std::upper_bound(begin.begin(), begin.end(), members.front()) - begin.begin() - 1;
