@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -135,14 +136,30 @@ class FrameCells {
     bit = ix >= 0 && ix < w_ && iy >= 0 && iy < d_ && v.z < h_ ? (v.z * d_ + iy) * w_ + ix : -1;
     return true;
   }
-  /// Marks the voxel hit; true when it was not yet.
-  bool mark_hit(const VoxelCell& v, std::int64_t bit) {
-    return bit >= 0 ? set(hit_, bit) : hit_outside_.insert(voxel_key(v));
+  /// Every hit is marked before the first free voxel.
+  void mark_hit(const VoxelCell& v, std::int64_t bit) {
+    if (bit >= 0) {
+      hit_[bit >> 6] |= std::uint64_t{1} << (bit & 63);
+    } else if (hit_outside_.insert(voxel_key(v))) {
+      add(evidence_.hit, voxel_key(v));
+    }
   }
-  /// Marks the voxel free unless it is hit; true when newly free.
-  bool mark_free(const VoxelCell& v, std::int64_t bit) {
-    if (bit >= 0) return !test(hit_, bit) && set(free_, bit);
-    return !hit_outside_.contains(voxel_key(v)) && free_outside_.insert(voxel_key(v));
+  /// A voxel both hit and crossed is hit: evidence() leaves the box's hit voxels out of its free ones.
+  void mark_free(const VoxelCell& v, std::int64_t bit) {
+    if (bit >= 0) {
+      free_[bit >> 6] |= std::uint64_t{1} << (bit & 63);
+    } else if (!hit_outside_.contains(voxel_key(v)) && free_outside_.insert(voxel_key(v))) {
+      add(evidence_.free, voxel_key(v));
+    }
+  }
+  /// The voxels marked, each once, by shard (the box's read off its bitsets: setting a bit costs
+  /// less than asking whether it was set and keeping a list).
+  FrameEvidence evidence() && {
+    for (std::size_t w = 0; w < hit_.size(); ++w) {
+      add_bits(hit_[w], w, evidence_.hit);
+      add_bits(free_[w] & ~hit_[w], w, evidence_.free);
+    }
+    return std::move(evidence_);
   }
 
  private:
@@ -153,12 +170,14 @@ class FrameCells {
     const float* z = ground_z_m_.find(voxel_key(VoxelCell{gx, gy, 0}));
     return z ? *z : std::numeric_limits<float>::quiet_NaN();
   }
-  static bool test(const std::vector<std::uint64_t>& bits, std::int64_t i) { return (bits[i >> 6] >> (i & 63)) & 1u; }
-  static bool set(std::vector<std::uint64_t>& bits, std::int64_t i) {
-    const std::uint64_t m = std::uint64_t{1} << (i & 63);
-    const bool was = bits[i >> 6] & m;
-    bits[i >> 6] |= m;
-    return !was;
+  static void add(std::array<std::vector<std::uint64_t>, kShards>& out, std::uint64_t key) {
+    out[shard_of(key)].push_back(key);
+  }
+  void add_bits(std::uint64_t bits, std::size_t word, std::array<std::vector<std::uint64_t>, kShards>& out) const {
+    for (; bits != 0; bits &= bits - 1) {
+      const auto i = static_cast<std::int64_t>(64 * word) + std::countr_zero(bits);
+      add(out, voxel_key(VoxelCell{x0_ + i % w_, y0_ + i / w_ % d_, i / (w_ * d_)}));
+    }
   }
   const MovingPointsConfig& c_;
   double inv_voxel_, inv_cell_;
@@ -168,20 +187,16 @@ class FrameCells {
   std::vector<std::uint64_t> hit_, free_;
   std::vector<float> ground_;
   VoxelKeySet hit_outside_, free_outside_;
+  FrameEvidence evidence_;  // the voxels outside the box so far
 };
 
 // The voxels a frame's points land in and the voxels its rays cross short of their points.
 FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& ground_z_m, const MovingPointsConfig& c) {
-  FrameEvidence e;
   FrameCells cells(f, ground_z_m, c);
   VoxelCell v;
   std::int64_t bit = -1;
-  const auto add = [](std::array<std::vector<std::uint64_t>, kShards>& out, const VoxelCell& v) {
-    const std::uint64_t key = voxel_key(v);
-    out[shard_of(key)].push_back(key);
-  };
   for (const Vec3f& p : f.p_world)
-    if (p.allFinite() && cells.cell(p, v, bit) && cells.mark_hit(v, bit)) add(e.hit, v);
+    if (p.allFinite() && cells.cell(p, v, bit)) cells.mark_hit(v, bit);
   for (std::size_t i = 0; i < f.p_world.size(); ++i) {
     const Vec3f& p = f.p_world[i];
     if (!p.allFinite()) continue;
@@ -190,9 +205,9 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& gro
     const double free_m = ray.norm() - c.end_margin_m;
     const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
     for (float s = step; s * ray.norm() < free_m; s += step)
-      if (cells.cell(o + s * ray, v, bit) && cells.mark_free(v, bit)) add(e.free, v);
+      if (cells.cell(o + s * ray, v, bit)) cells.mark_free(v, bit);
   }
-  return e;
+  return std::move(cells).evidence();
 }
 
 struct Counts {
