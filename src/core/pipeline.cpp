@@ -94,12 +94,8 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   return FrameStore(data, base, config.frames);
 }
 
-void load_check_frames(const FrameStore& store, const FrameGroups& stage1_groups, const PipelineConfig& config,
-                       double time_offset_s) {
-  std::vector<std::size_t> frames;
-  if (config.run_refine) frames = refine_frames(store, config.refine, time_offset_s, refine_margin_s(config.refine));
-  for (const auto& g : stage1_groups) frames.insert(frames.end(), g.begin(), g.end());
-  store.load(frames);
+void load_check_frames(const FrameStore& store, const PipelineConfig& config, double time_offset_s) {
+  if (config.run_refine) store.load(refine_frames(store, config.refine, time_offset_s, refine_margin_s(config.refine)));
 }
 
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
@@ -200,7 +196,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   // and left out of every later step (stage 2 picks its frames again after the checks, the same
   // ones but for those in a span left out).
   progress("screen", 0.0);  // decoding stage 2's frames is part of the checks' cost
-  load_check_frames(status_screened, groups, config, r.time_offset_s);
+  load_check_frames(status_screened, config, r.time_offset_s);
   const InsScreenResult checks = lidar_checks(status_screened, r.T_ins_lidar, r.time_offset_s, config.ins_screen);
   const FrameStore screened = screen_after_stage1(status_screened, checks, config, r, groups);
   progress("screen", 1.0);

@@ -107,12 +107,9 @@ FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config);
 /// stage1_may_fail (a rig's joint stage 2 may still determine it: r.rough.outcome says so).
 FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
                       CalibrationResult& r, bool stage1_may_fail = false);
-/// Decodes the frames the checks after stage 1 should see: they sample decoded frames first, so
-/// that they check the frames stage 2 will take (config.run_refine) and every frame of stage 1's
-/// groups (runs of consecutive frames for the scan-to-scan checks; stage 1 from a near start
-/// reads only every other one).
-void load_check_frames(const FrameStore& store, const FrameGroups& stage1_groups, const PipelineConfig& config,
-                       double time_offset_s);
+/// Decodes stage 2's frames (config.run_refine) for the checks after stage 1: they sample the
+/// decoded frames, so they check the frames stage 2 will take and those stage 1 read.
+void load_check_frames(const FrameStore& store, const PipelineConfig& config, double time_offset_s);
 /// After stage 1, the store every later step reads: the spans `lidar_checks` found left out (INS
 /// time: a rig's reference LiDAR's checks serve every LiDAR on the INS) and the points on moving
 /// things masked (config.moving, found with r's stage-1 extrinsic and time offset). r.ins_screen,

@@ -163,7 +163,7 @@ void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameG
                              const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
   if (progress) progress("screen", 0.0);
   for (std::size_t l = 0; l < stores.size(); ++l)
-    load_check_frames(stores[l], rough_groups[l], config, rig.lidars[l].result.time_offset_s);
+    load_check_frames(stores[l], config, rig.lidars[l].result.time_offset_s);
   const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
   const CalibrationResult& rr = rig.lidars[ref].result;
   InsScreenResult checks = lidar_checks(stores[ref], rr.T_ins_lidar, rr.time_offset_s, config.ins_screen);
