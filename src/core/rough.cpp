@@ -386,6 +386,9 @@ Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, 
 }
 
 // Levenberg-Marquardt on the fixed association, moving only the DOFs in `free`.
+// A step gaining less than this fraction of the cost is not taken.
+constexpr double kNegligibleGain = 1e-5;
+
 Accum solve_round(const Problem& problem, const RoughRound& round, const std::vector<int>& free, Accum acc,
                   Iso3& T_ins_lidar) {
   double lambda = 1e-3;
@@ -405,14 +408,21 @@ Accum solve_round(const Problem& problem, const RoughRound& round, const std::ve
       Vec6 delta = Vec6::Zero();
       for (int a = 0; a < n; ++a) delta(free[a]) = step(a);
       const Iso3 candidate = apply_update(T_ins_lidar, delta);
+      // A step the model says gains almost nothing (the association, not the solver, limits
+      // now) is the last: taken without the evaluation that would only confirm it. g and H are
+      // half the derivatives of the cost (a sum of squared distances). acc stays the last
+      // evaluated point's, a step away.
+      const double predicted = -2.0 * g.dot(step) - step.dot(H * step);
+      if (predicted < kNegligibleGain * acc.cost || (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-6)) {
+        T_ins_lidar = candidate;
+        return acc;
+      }
       const Accum trial = evaluate(problem, candidate, round.robust_scale_m, true);
       if (trial.cost > acc.cost) {
         lambda *= 5.0;
         continue;
       }
-      // Stop once a step gains almost nothing (the association, not the solver, limits now).
-      const bool negligible = acc.cost - trial.cost < 1e-5 * acc.cost ||
-                              (delta.head<3>().norm() < 1e-5 && delta.tail<3>().norm() < 1e-6);
+      const bool negligible = acc.cost - trial.cost < kNegligibleGain * acc.cost;
       T_ins_lidar = candidate;
       acc = trial;
       lambda = std::max(lambda / 3.0, 1e-7);
