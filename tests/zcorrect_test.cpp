@@ -4,9 +4,12 @@
 // 0.3 m plus the small rotation and xy errors that stage 2 leaves (0.01 deg, 5 mm).
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
+#include <memory>
 #include <random>
 
+#include "core/z_surface.hpp"
 #include "core/zcorrect.hpp"
 #include "test_world.hpp"
 
@@ -75,6 +78,40 @@ TEST(ZCorrect, RecoversTzFromSixFiducials) {
     EXPECT_GE(f.map_points, 10u) << f.id;
   }
   EXPECT_LT(r.outcome.wall_time_s, 0.5);
+}
+
+// The pipeline measures tz before and after stage 2, whose extrinsic and time offset differ a
+// little: the second run reads the raw points the first kept instead of decoding the sweeps
+// again, and gets the same answer as a fresh run.
+TEST(ZCorrect, SecondRunReusesTheRawPointsTheFirstKept) {
+  testing::TestDrive drive = make_drive(11);
+  auto decoded = std::make_shared<std::atomic<int>>(0);
+  drive.data.frames.load = [load = drive.data.frames.load, decoded](std::size_t i) {
+    ++*decoded;
+    return load(i);
+  };
+  const FrameStore store = testing::store_of(drive.data);
+  const Iso3 T_early = stage2_like(drive.T_ins_lidar_true);
+  Iso3 T_late = T_early;  // what stage 2 changes: a few mm, a few thousandths of a degree, the offset
+  T_late.linear() = T_late.linear() * so3_exp(Vec3(0.004, 0.0, -0.003) * kRadPerDeg);
+  T_late.translation() += Vec3(0.003, -0.002, 0.0);
+  const double offset_late_s = 0.004;
+  NearPoints near;
+  ASSERT_TRUE(correct_z(store, T_early, 0.0, std::nullopt, {}, &near).determined());
+  const int first = decoded->exchange(0);
+  EXPECT_GT(first, 10);
+  const ZResult kept = correct_z(store, T_late, offset_late_s, std::nullopt, {}, &near);
+  EXPECT_EQ(decoded->exchange(0), 0);
+  const ZResult fresh = correct_z(store, T_late, offset_late_s, std::nullopt);
+  EXPECT_EQ(decoded->load(), first);
+  ASSERT_TRUE(fresh.determined()) << fresh.outcome.message;
+  EXPECT_EQ(kept.dz_m, fresh.dz_m);
+  EXPECT_EQ(kept.tz_stddev_m(), fresh.tz_stddev_m());
+  ASSERT_EQ(kept.fiducials.size(), fresh.fiducials.size());
+  for (std::size_t f = 0; f < kept.fiducials.size(); ++f) EXPECT_EQ(kept.fiducials[f].map_points, fresh.fiducials[f].map_points);
+  // A change beyond the kept margin (a 1 s clock offset moves every point metres) decodes again.
+  correct_z(store, T_late, 1.0, std::nullopt, {}, &near);
+  EXPECT_GT(decoded->load(), 0);
 }
 
 TEST(ZCorrect, NearestNeighbourMatchAlsoWorks) {

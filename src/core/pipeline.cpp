@@ -7,6 +7,7 @@
 #include <tbb/parallel_invoke.h>
 
 #include "core/errors.hpp"
+#include "core/z_surface.hpp"
 
 namespace insalign {
 namespace {
@@ -25,8 +26,8 @@ void stop_if_undetermined(const StageOutcome& outcome) {
 // 0.3 m at a 1.5 deg roll in a turn is 8 mm sideways, which the lateral lever arm absorbs
 // (measured on the recorded trajectory: tx 3.3 -> 0.2 mm with perfect poses).
 void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames, const PipelineConfig& config,
-                const PipelineProgress& progress, CalibrationResult& r) {
-  const ZResult early_z = correct_z(store, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
+                const PipelineProgress& progress, NearPoints& near, CalibrationResult& r) {
+  const ZResult early_z = correct_z(store, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z, &near);
   if (early_z.determined()) r.T_ins_lidar = early_z.T_ins_lidar;
   std::string warning;
   r.refine = refine_checked(store, frames, r.T_ins_lidar, r.time_offset_s, r.motion.max_speed_mps, config.refine,
@@ -142,12 +143,12 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
 
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
                 const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r,
-                const BesideRepeatability& beside) {
+                const BesideRepeatability& beside, NearPoints* near) {
   // 4. Stage 3: tz from fiducials or the height prior; otherwise it stays undetermined.
   progress("z", 0.0);
   ZConfig z_config = config.z;  // a drifting INS's height error enters tz's stddev (core/tz_coupling)
   z_config.ins_vertical_sigma_m = ins_height_sigma_m(placed, config.z.ins_vertical_sigma_m);
-  r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, z_config);
+  r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, z_config, near);
   progress("z", 1.0);
   r.T_ins_lidar = r.z.T_ins_lidar;
   r.determined[2] = r.z.determined() || r.rough.tz_estimated;
@@ -205,11 +206,12 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   const std::vector<std::size_t> refine_frames =
       config.run_refine ? insalign::refine_frames(screened, config.refine, r.time_offset_s, refine_margin_s(config.refine))
                         : std::vector<std::size_t>{};
-  if (config.run_refine) run_refine(screened, refine_frames, config, progress, r);
+  NearPoints near;  // stage 3 runs twice (before and after stage 2) on the same raw sweeps
+  if (config.run_refine) run_refine(screened, refine_frames, config, progress, near, r);
   if (config.run_refine) run_trajectory_correction(screened, config, progress, r);
   const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
-  run_finish(placed, groups, refine_frames, config, progress, r, beside);  // steps 4-5
+  run_finish(placed, groups, refine_frames, config, progress, r, beside, &near);  // steps 4-5
   add_ins_heading_error(config, r);
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);

@@ -126,9 +126,10 @@ using BesideRepeatability = std::function<void(const CalibrationResult& r)>;
 
 /// Steps 4-5 after stage 2: stage 3 on `placed` (the store whose poses the result uses) and the
 /// repeatability study when config.repeatability asks for it, with `beside` run alongside.
+/// `near`: the raw points the early stage 3 kept (correct_z).
 void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::vector<std::size_t>& refine_frames,
                 const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r,
-                const BesideRepeatability& beside = {});
+                const BesideRepeatability& beside = {}, NearPoints* near = nullptr);
 
 /// Runs everything on the store's frames. Throws UnobservableError (with which DOFs and why) when
 /// the drive cannot determine the extrinsic; tz alone undetermined is not an error (it is reported).

@@ -11,6 +11,7 @@
 #include "core/map_registration.hpp"
 #include "core/stitch.hpp"
 #include "core/voxel_grid.hpp"
+#include "core/z_surface.hpp"
 
 namespace insalign {
 namespace {
@@ -257,14 +258,14 @@ bool relative_tz(const std::vector<std::size_t>& members, const PipelineConfig& 
 // anchor's stays fixed: each LiDAR's fiducial tz is a few mm off, and on the shared ground that
 // offset would be absorbed as a tilt of the sparse LiDAR (3 mm over 5 m is 0.03 deg).
 std::vector<RefineLidar> group_inputs(const std::vector<FrameStore>& stores, const std::vector<std::size_t>& members,
-                                      const PipelineConfig& config, RigResult& rig) {
+                                      const PipelineConfig& config, std::vector<NearPoints>& near, RigResult& rig) {
   std::vector<RefineLidar> in;
   const double margin = refine_margin_s(config.refine);
   const bool relative = relative_tz(members, config);
   const std::size_t anchor = tz_anchor(members, rig);
   for (std::size_t l : members) {
     CalibrationResult& r = rig.lidars[l].result;
-    const ZResult early_z = correct_z(stores[l], r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z);
+    const ZResult early_z = correct_z(stores[l], r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z, &near[l]);
     if (early_z.determined()) r.T_ins_lidar = early_z.T_ins_lidar;
     in.push_back({rig.lidars[l].name, &stores[l], refine_frames(stores[l], config.refine, r.time_offset_s, margin), r.T_ins_lidar,
                   r.time_offset_s, true, relative && l != anchor});
@@ -323,10 +324,11 @@ std::string undetermined_message(const RigResult& rig) {
 std::vector<JointRefineResult> refine_groups(const std::vector<FrameStore>& stores,
                                              const std::vector<std::vector<std::size_t>>& groups,
                                              const PipelineConfig& config, const PipelineProgress& progress,
-                                             std::vector<std::vector<RefineLidar>>& inputs, RigResult& rig) {
+                                             std::vector<NearPoints>& near, std::vector<std::vector<RefineLidar>>& inputs,
+                                             RigResult& rig) {
   std::vector<JointRefineResult> out;
   for (std::size_t g = 0; g < groups.size(); ++g) {
-    inputs.push_back(group_inputs(stores, groups[g], config, rig));
+    inputs.push_back(group_inputs(stores, groups[g], config, near, rig));
     double max_speed_mps = 0.0;
     for (std::size_t l : groups[g]) max_speed_mps = std::max(max_speed_mps, rig.lidars[l].result.motion.max_speed_mps);
     std::vector<std::string> warnings;
@@ -548,7 +550,8 @@ void share_anchor_stage3(const std::vector<std::size_t>& members, const std::vec
 // a joint group by joint segments.
 void finish_all(const std::vector<FrameStore>& stores, const std::vector<std::vector<std::size_t>>& groups,
                 const std::vector<std::vector<RefineLidar>>& inputs, const std::vector<FrameGroups>& rough_groups,
-                const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
+                const PipelineConfig& config, std::vector<NearPoints>& near, const PipelineProgress& progress,
+                RigResult& rig) {
   PipelineConfig no_segments = config;
   no_segments.repeatability.segments = 0;
   for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -559,7 +562,7 @@ void finish_all(const std::vector<FrameStore>& stores, const std::vector<std::ve
       tz_before_m.push_back(rig.lidars[l].result.T_ins_lidar.translation().z());
       const std::vector<std::size_t> frames = inputs.empty() ? std::vector<std::size_t>{} : inputs[g][k].frames;
       run_finish(stores[l], rough_groups[l], frames, joint ? no_segments : config,
-                 lidar_progress(progress, rig.lidars[l].name), rig.lidars[l].result);
+                 lidar_progress(progress, rig.lidars[l].name), rig.lidars[l].result, {}, &near[l]);
     }
     if (joint && config.refine.joint.shared_stage3 && !rig.lidars[groups[g].front()].tz_anchor.empty())
       share_anchor_stage3(groups[g], tz_before_m, rig);
@@ -732,16 +735,17 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
 
   std::vector<std::vector<RefineLidar>> inputs;
   std::vector<JointRefineResult> joints;
+  std::vector<NearPoints> near(stores.size());  // each LiDAR's stage 3 runs before and after stage 2
   if (config.run_refine) {
     const auto t_joint = std::chrono::steady_clock::now();
-    joints = refine_groups(screened, groups, config, progress, inputs, rig);
+    joints = refine_groups(screened, groups, config, progress, near, inputs, rig);
     rig.joint_wall_time_s = seconds_since(t_joint);
   }
   if (const std::string why = undetermined_message(rig); !why.empty()) throw UnobservableError(why);
   if (config.trajectory.mode != TrajectoryCorrectionMode::kOff)
     rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
 
-  finish_all(screened, groups, inputs, rough_groups, config, progress, rig);
+  finish_all(screened, groups, inputs, rough_groups, config, near, progress, rig);
   rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS heading error is common to all
   for (RigLidar& lidar : rig.lidars) add_ins_heading_error(config, lidar.result);
   rig.wall_time_s = seconds_since(start);

@@ -98,8 +98,89 @@ void LocalMap::append(const LocalMap& other) {
   frames += other.frames;
 }
 
+namespace {
+
+// How far any point of `part` can move between its placements with (a) and (b): the change of
+// the LiDAR pose at the sweep's start, middle and end, its rotation acting at the part's farthest
+// point, with a half again for the poses between those times.
+double placement_change_m(const Sweep& part, const PoseStream& poses, const Iso3& T_a, double offset_a,
+                          const Iso3& T_b, double offset_b) {
+  float range_m = 0.0f, dt_lo = 0.0f, dt_hi = 0.0f;
+  for (const Vec3f& p : part.p_lidar) range_m = std::max(range_m, p.norm());
+  if (part.has_time()) {
+    const auto [lo, hi] = std::minmax_element(part.dt_s.begin(), part.dt_s.end());
+    dt_lo = *lo, dt_hi = *hi;
+  }
+  double change = 0.0;
+  for (const double dt : {double(dt_lo), 0.5 * (dt_lo + dt_hi), double(dt_hi)}) {
+    const Iso3 A = poses.T_world_ins(part.t_end_s + dt + offset_a) * T_a;
+    const Iso3 B = poses.T_world_ins(part.t_end_s + dt + offset_b) * T_b;
+    const double turn = Eigen::AngleAxisd(A.linear().transpose() * B.linear()).angle();
+    change = std::max(change, (B.translation() - A.translation()).norm() + turn * range_m);
+  }
+  return 1.5 * change;
+}
+
+}  // namespace
+
+const Sweep* NearPoints::find(std::size_t index, const Target& t, const PoseStream& poses, const Iso3& T_ins_lidar,
+                              double time_offset_s) const {
+  const std::lock_guard lock(mutex_);
+  const auto it = parts_.find(key(index, t));
+  if (it == parts_.end()) return nullptr;
+  const Part& p = it->second;
+  if (!sweep_covered(poses, p.sweep, time_offset_s)) return nullptr;  // the sweep's time span: not placed
+  const double change = placement_change_m(p.sweep, poses, p.T_ins_lidar, p.time_offset_s, T_ins_lidar, time_offset_s);
+  return change < margin_m_ ? &p.sweep : nullptr;  // std::map: the part stays where it is
+}
+
+void NearPoints::keep(std::size_t index, const Target& t, const Sweep& raw, const std::vector<Vec3f>& p_world,
+                      const Iso3& T_ins_lidar, double time_offset_s) {
+  Part part{.sweep = {}, .T_ins_lidar = T_ins_lidar, .time_offset_s = time_offset_s};
+  part.sweep.name = raw.name;
+  part.sweep.t_end_s = raw.t_end_s;
+  std::size_t first = 0, last = 0;  // the earliest and latest point: the part's knots are the sweep's
+  if (raw.has_time()) {
+    first = std::min_element(raw.dt_s.begin(), raw.dt_s.end()) - raw.dt_s.begin();
+    last = std::max_element(raw.dt_s.begin(), raw.dt_s.end()) - raw.dt_s.begin();
+  }
+  const double r = t.radius_m + margin_m_;
+  for (std::size_t i = 0; i < raw.size(); ++i) {
+    const bool near = p_world[i].allFinite() && (p_world[i].head<2>().cast<double>() - t.centre_xy).squaredNorm() <= r * r;
+    if (!near && !(raw.has_time() && (i == first || i == last))) continue;
+    part.sweep.p_lidar.push_back(raw.p_lidar[i]);
+    if (raw.has_time()) part.sweep.dt_s.push_back(raw.dt_s[i]);
+  }
+  const std::lock_guard lock(mutex_);
+  parts_.insert_or_assign(key(index, t), std::move(part));
+}
+
+namespace {
+
+// The wanted targets of frame `index` handed their points from the parts `near` keeps; false (and
+// nothing handed) unless it keeps a valid part for every one.
+bool hand_out_kept(const FrameStore& store, std::size_t index, const std::vector<Target>& targets,
+                   const std::vector<std::size_t>& wanted, const Iso3& T_ins_lidar, double time_offset_s,
+                   float min_range_sq, const NearPoints& near, std::vector<LocalMap>& maps) {
+  std::vector<const Sweep*> parts;
+  for (std::size_t t : wanted) {
+    parts.push_back(near.find(index, targets[t], store.poses(), T_ins_lidar, time_offset_s));
+    if (!parts.back()) return false;
+  }
+  for (std::size_t k = 0; k < wanted.size(); ++k) {
+    const Sweep& part = *parts[k];
+    const std::vector<Vec3f> p_world =
+        sweep_to_world(part, store.poses(), T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
+    const Vec3 up = frame_pose(part, store.poses(), time_offset_s).linear().col(2);
+    hand_out(part, p_world, up, targets, {wanted[k]}, min_range_sq, maps);
+  }
+  return true;
+}
+
+}  // namespace
+
 std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>& targets, const Iso3& T_ins_lidar,
-                             double time_offset_s, std::size_t* frames_loaded) {
+                             double time_offset_s, std::size_t* frames_loaded, NearPoints* near) {
   std::vector<std::size_t> frames;
   for (const Target& t : targets) frames.insert(frames.end(), t.frames.begin(), t.frames.end());
   std::sort(frames.begin(), frames.end());
@@ -113,6 +194,9 @@ std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>&
     std::vector<std::size_t> wanted;
     for (std::size_t t = 0; t < targets.size(); ++t)
       if (std::binary_search(targets[t].frames.begin(), targets[t].frames.end(), frames[f])) wanted.push_back(t);
+    if (near && hand_out_kept(store, frames[f], targets, wanted, T_ins_lidar, time_offset_s, min_range_sq, *near,
+                              per_frame[f]))
+      return;
     // Raw: a fiducial's local plane averages every point near it (the store's copies are thinned).
     const Sweep sweep = store.data().frames.load(frames[f]);
     if (!sweep_covered(store.poses(), sweep, time_offset_s)) return;
@@ -122,6 +206,8 @@ std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>&
     // seed 21: tz undetermined); fiducial surfaces are fitted robustly instead.
     const Vec3 up = frame_pose(sweep, store.poses(), time_offset_s).linear().col(2);
     hand_out(sweep, p_world, up, targets, wanted, min_range_sq, per_frame[f]);
+    if (near)
+      for (std::size_t t : wanted) near->keep(frames[f], targets[t], sweep, p_world, T_ins_lidar, time_offset_s);
   });
   std::vector<LocalMap> maps(targets.size());
   for (auto& frame_maps : per_frame) {

@@ -5,7 +5,10 @@
 
 #include <cstddef>
 #include <limits>
+#include <map>
+#include <mutex>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/frame_store.hpp"
@@ -32,10 +35,44 @@ struct LocalMap {
   void append(const LocalMap& other);
 };
 
+/// Raw points near stage 3's targets, kept by one stage-3 run for the next on the same store (the
+/// pipeline measures tz before and after stage 2): decoding whole raw sweeps was most of the
+/// stage's time. A frame's points are kept within margin_m beyond a target's radius and reused
+/// while no point of them can have moved by the margin (a later extrinsic and time offset place
+/// them a little differently), so the target gets exactly the points a fresh decode would give.
+/// Thread-safe.
+class NearPoints {
+ public:
+  explicit NearPoints(double margin_m = 0.5) : margin_m_(margin_m) {}
+
+  /// The kept part of frame `index` around target t, if it still holds every point that placing
+  /// the whole sweep with (T_ins_lidar, time_offset_s) would give t; else nullptr.
+  const Sweep* find(std::size_t index, const Target& t, const PoseStream& poses, const Iso3& T_ins_lidar,
+                    double time_offset_s) const;
+  /// Keeps the points of `raw` (placed as p_world with T_ins_lidar, time_offset_s) within the
+  /// margin of t, with the earliest and latest point: the part then places like the sweep.
+  void keep(std::size_t index, const Target& t, const Sweep& raw, const std::vector<Vec3f>& p_world,
+            const Iso3& T_ins_lidar, double time_offset_s);
+
+ private:
+  struct Part {
+    Sweep sweep;
+    Iso3 T_ins_lidar = Iso3::Identity();
+    double time_offset_s = 0.0;
+  };
+  using Key = std::tuple<std::size_t, double, double, double>;  // frame, centre x, y, radius
+  static Key key(std::size_t index, const Target& t) { return {index, t.centre_xy.x(), t.centre_xy.y(), t.radius_m}; }
+  double margin_m_;
+  mutable std::mutex mutex_;
+  std::map<Key, Part> parts_;
+};
+
 /// Loads each frame any target needs once (raw, in parallel), places it with per-point deskew
-/// and hands every target the points near it. Frames the poses do not cover are skipped.
+/// and hands every target the points near it. Frames the poses do not cover are skipped. With
+/// `near`, frames whose points near their targets it still holds are not decoded again, and those
+/// decoded leave it their points near their targets.
 std::vector<LocalMap> gather(const FrameStore& store, const std::vector<Target>& targets, const Iso3& T_ins_lidar,
-                             double time_offset_s, std::size_t* frames_loaded);
+                             double time_offset_s, std::size_t* frames_loaded, NearPoints* near = nullptr);
 
 /// Height of the map surface at a horizontal position and how it moves with tz.
 struct SurfaceHeight {

@@ -45,7 +45,8 @@ std::vector<std::vector<std::size_t>> fiducial_candidates(const FrameStore& stor
 // the distances where one of its rings meets the ground).
 void gather_fiducial_maps(const FrameStore& store, const std::vector<std::vector<std::size_t>>& candidates,
                           const Iso3& T_ins_lidar, double time_offset_s, const ZConfig& config,
-                          std::vector<Target>& targets, std::vector<LocalMap>& maps, std::size_t* frames_loaded) {
+                          std::vector<Target>& targets, std::vector<LocalMap>& maps, std::size_t* frames_loaded,
+                          NearPoints* near) {
   const auto& fiducials = store.data().fiducials;
   const auto& frames = store.data().frames.frames;
   const std::size_t n = fiducials.size();
@@ -76,7 +77,7 @@ void gather_fiducial_maps(const FrameStore& store, const std::vector<std::vector
     }
     if (!any) return;
     std::size_t loaded = 0;
-    const std::vector<LocalMap> more = gather(store, batch, T_ins_lidar, time_offset_s, &loaded);
+    const std::vector<LocalMap> more = gather(store, batch, T_ins_lidar, time_offset_s, &loaded, near);
     *frames_loaded += loaded;
     for (std::size_t f = 0; f < n; ++f) maps[f].append(more[f]);
   }
@@ -167,12 +168,12 @@ void set_determined(ZResult& result, ZMethod method, const Iso3& T_ins_lidar, do
 }
 
 void from_fiducials(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s, const ZConfig& config,
-                    ZResult& result) {
+                    NearPoints* near, ZResult& result) {
   const DriveFrames drive = covered_frames(store, time_offset_s);
   std::vector<Target> targets;
   std::vector<LocalMap> maps;
   gather_fiducial_maps(store, fiducial_candidates(store, drive, T_ins_lidar, config), T_ins_lidar, time_offset_s,
-                       config, targets, maps, &result.frames_loaded);
+                       config, targets, maps, &result.frames_loaded, near);
   std::vector<std::size_t> sample_fiducial;
   std::vector<double> gain;
   const std::vector<DzSample> samples = measure_fiducials(store, targets, maps, config, result, sample_fiducial, gain);
@@ -227,7 +228,8 @@ SurfaceHeight ground_at(const LocalMap& map, const Target& target, const ZConfig
 // the window.
 std::vector<SurfaceHeight> measure_ground(const FrameStore& store, const DriveFrames& drive,
                                           const std::vector<std::size_t>& sample, const Iso3& T_ins_lidar,
-                                          double time_offset_s, const ZConfig& config, std::size_t* frames_loaded) {
+                                          double time_offset_s, const ZConfig& config, std::size_t* frames_loaded,
+                                          NearPoints* near) {
   const std::size_t n = sample.size();
   std::vector<Target> targets(n);
   for (std::size_t s = 0; s < n; ++s) {
@@ -239,7 +241,7 @@ std::vector<SurfaceHeight> measure_ground(const FrameStore& store, const DriveFr
     targets[s].frames.insert(std::lower_bound(targets[s].frames.begin(), targets[s].frames.end(), own), own);
   }
   std::size_t loaded = 0;
-  std::vector<LocalMap> maps = gather(store, targets, T_ins_lidar, time_offset_s, &loaded);
+  std::vector<LocalMap> maps = gather(store, targets, T_ins_lidar, time_offset_s, &loaded, near);
   *frames_loaded += loaded;
   std::vector<SurfaceHeight> ground(n);
   std::vector<Target> more(n);
@@ -255,7 +257,7 @@ std::vector<SurfaceHeight> measure_ground(const FrameStore& store, const DriveFr
     any_more = any_more || !more[s].frames.empty();
   }
   if (!any_more) return ground;
-  const std::vector<LocalMap> extra = gather(store, more, T_ins_lidar, time_offset_s, &loaded);
+  const std::vector<LocalMap> extra = gather(store, more, T_ins_lidar, time_offset_s, &loaded, near);
   *frames_loaded += loaded;
   for (std::size_t s = 0; s < n; ++s) {
     if (more[s].frames.empty()) continue;
@@ -266,7 +268,7 @@ std::vector<SurfaceHeight> measure_ground(const FrameStore& store, const DriveFr
 }
 
 void from_height(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s, double ins_height_m,
-                 const ZConfig& config, ZResult& result) {
+                 const ZConfig& config, NearPoints* near, ZResult& result) {
   const DriveFrames drive = covered_frames(store, time_offset_s);
   if (drive.size() == 0) {
     result.outcome.message = "tz not determined from --ins-height-m: no frame is covered by the poses";
@@ -276,7 +278,7 @@ void from_height(const FrameStore& store, const Iso3& T_ins_lidar, double time_o
   std::vector<std::size_t> sample(n);
   for (std::size_t s = 0; s < n; ++s) sample[s] = (2 * s + 1) * drive.size() / (2 * n);
   const std::vector<SurfaceHeight> ground =
-      measure_ground(store, drive, sample, T_ins_lidar, time_offset_s, config, &result.frames_loaded);
+      measure_ground(store, drive, sample, T_ins_lidar, time_offset_s, config, &result.frames_loaded, near);
   std::vector<DzSample> samples;
   std::string last_problem;
   for (std::size_t s = 0; s < n; ++s) {
@@ -309,18 +311,18 @@ void from_height(const FrameStore& store, const Iso3& T_ins_lidar, double time_o
 }  // namespace
 
 ZResult correct_z(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
-                  std::optional<double> ins_height_m, const ZConfig& config) {
+                  std::optional<double> ins_height_m, const ZConfig& config, NearPoints* near) {
   const auto start = std::chrono::steady_clock::now();
   ZResult result;
   result.T_ins_lidar = T_ins_lidar;
   const bool have_fiducials = !store.data().fiducials.empty();
   std::string fiducial_problem;
   if (have_fiducials) {
-    from_fiducials(store, T_ins_lidar, time_offset_s, config, result);
+    from_fiducials(store, T_ins_lidar, time_offset_s, config, near, result);
     if (!result.determined()) fiducial_problem = result.outcome.message;
   }
   if (!result.determined() && ins_height_m) {
-    from_height(store, T_ins_lidar, time_offset_s, *ins_height_m, config, result);
+    from_height(store, T_ins_lidar, time_offset_s, *ins_height_m, config, near, result);
     if (!fiducial_problem.empty()) result.outcome.message = fiducial_problem + "; " + result.outcome.message;
   }
   if (!result.determined()) {

@@ -142,10 +142,14 @@ struct ZResult {
   double tz_stddev_m() const { return outcome.stddev[2]; }
 };
 
+class NearPoints;
+
 /// Corrects tz of T_ins_lidar (its rotation and tx, ty are kept). Uses the dataset's fiducials if
 /// there are any, else ins_height_m (height of the INS origin above the ground) if given, else
 /// nothing. Frames are placed with per-point deskew and time_offset_s (LiDAR -> INS clock).
+/// `near` (core/z_surface.hpp): the raw points an earlier run on the same store kept, and where
+/// this run keeps its own.
 ZResult correct_z(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
-                  std::optional<double> ins_height_m, const ZConfig& config = {});
+                  std::optional<double> ins_height_m, const ZConfig& config = {}, NearPoints* near = nullptr);
 
 }  // namespace insalign
