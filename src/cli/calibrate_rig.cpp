@@ -33,12 +33,17 @@ int calibrate_rig(const io::LoadedInput& input, const PipelineConfig& config, co
     if (l < input.reports.size()) runs[l].load = input.reports[l];
   }
   ProgressBar bar(options.verbosity);
-  const RigResult rig = run_rig_calibration(stores, input.lidar_names, config, bar.callback());
+  // Each LiDAR's report pictures need only its final extrinsic: drawn beside the repeatability study.
+  std::vector<std::optional<io::LidarReportDrawing>> drawn(stores.size());
+  const RigBeside draw = [&](std::size_t l, const CalibrationResult& r) { drawn[l] = io::draw_lidar_report(r, stores[l]); };
+  const RigResult rig = run_rig_calibration(stores, input.lidar_names, config, bar.callback(),
+                                            options.no_report ? nullptr : draw);
   const double peak_mb = peak_rss_mb();
   for (io::RunInfo& run : runs) run.peak_memory_mb = peak_mb;
   io::RigOutputOptions out;
   out.report = !options.no_report;
-  io::write_rig_outputs(options.out_dir, rig, stores, runs, config, out, [&](double f) { bar.update("outputs", f); });
+  io::write_rig_outputs(options.out_dir, rig, stores, runs, config, out, [&](double f) { bar.update("outputs", f); },
+                        std::move(drawn));
   bar.finish();
   if (options.verbosity != Verbosity::kQuiet) fmt::print("{}", io::rig_summary_text(rig, peak_rss_mb()));
   if (!options.no_report) fmt::print("report: {}\n", (options.out_dir / "report.html").string());

@@ -1,6 +1,7 @@
 #include "core/rig.hpp"
 
 #include <fmt/format.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <chrono>
@@ -551,7 +552,7 @@ void share_anchor_stage3(const std::vector<std::size_t>& members, const std::vec
 void finish_all(const std::vector<FrameStore>& stores, const std::vector<std::vector<std::size_t>>& groups,
                 const std::vector<std::vector<RefineLidar>>& inputs, const std::vector<FrameGroups>& rough_groups,
                 const PipelineConfig& config, std::vector<NearPoints>& near, const PipelineProgress& progress,
-                RigResult& rig) {
+                const RigBeside& beside, RigResult& rig) {
   PipelineConfig no_segments = config;
   no_segments.repeatability.segments = 0;
   for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -561,16 +562,25 @@ void finish_all(const std::vector<FrameStore>& stores, const std::vector<std::ve
       const std::size_t l = groups[g][k];
       tz_before_m.push_back(rig.lidars[l].result.T_ins_lidar.translation().z());
       const std::vector<std::size_t> frames = inputs.empty() ? std::vector<std::size_t>{} : inputs[g][k].frames;
+      const BesideRepeatability alone = [&](const CalibrationResult& r) {
+        if (beside) beside(l, r);
+      };
       run_finish(stores[l], rough_groups[l], frames, joint ? no_segments : config,
-                 lidar_progress(progress, rig.lidars[l].name), rig.lidars[l].result, {}, &near[l]);
+                 lidar_progress(progress, rig.lidars[l].name), rig.lidars[l].result, joint ? nullptr : alone, &near[l]);
     }
     if (joint && config.refine.joint.shared_stage3 && !rig.lidars[groups[g].front()].tz_anchor.empty())
       share_anchor_stage3(groups[g], tz_before_m, rig);
-    if (joint && !inputs.empty() && config.repeatability.segments > 1) {
+    // The members' extrinsics are final now; the study changes only their stddevs and warnings.
+    const auto study = [&] {
+      if (!joint || inputs.empty() || config.repeatability.segments <= 1) return;
       if (progress) progress("joint repeatability", 0.0);
       joint_repeatability(inputs[g], groups[g], config, rig);
       if (progress) progress("joint repeatability", 1.0);
-    }
+    };
+    tbb::parallel_invoke(study, [&] {
+      if (!joint || !beside) return;
+      for (std::size_t l : groups[g]) beside(l, rig.lidars[l].result);
+    });
     if (joint) shared_tz_stddevs(groups[g], rig);
   }
   for (std::size_t l = 0; l < stores.size(); ++l) rig.lidars[l].result.frames_decoded = stores[l].frames_decoded();
@@ -712,7 +722,7 @@ LidarPair lidar_pair(const Iso3& T_ins_a, const Iso3& T_ins_b, const Mat12& cova
 }
 
 RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::vector<std::string>& names,
-                              const PipelineConfig& config, const PipelineProgress& progress) {
+                              const PipelineConfig& config, const PipelineProgress& progress, const RigBeside& beside) {
   const auto start = std::chrono::steady_clock::now();
   if (stores.size() != names.size() || stores.empty())
     throw InputError("rig", "", "one name per LiDAR needed (" + std::to_string(stores.size()) + " LiDARs, " +
@@ -745,7 +755,7 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
   if (config.trajectory.mode != TrajectoryCorrectionMode::kOff)
     rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
 
-  finish_all(screened, groups, inputs, rough_groups, config, near, progress, rig);
+  finish_all(screened, groups, inputs, rough_groups, config, near, progress, beside, rig);
   rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS heading error is common to all
   for (RigLidar& lidar : rig.lidars) add_ins_heading_error(config, lidar.result);
   rig.wall_time_s = seconds_since(start);

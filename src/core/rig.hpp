@@ -80,12 +80,17 @@ struct RigResult {
   double wall_time_s = 0.0;
 };
 
+/// Work on LiDAR `lidar` that needs its final extrinsic but no stddev (its report's pictures): run
+/// once per LiDAR beside the repeatability study (its own, or its joint group's).
+using RigBeside = std::function<void(std::size_t lidar, const CalibrationResult& r)>;
+
 /// Calibrates every LiDAR of the rig (stores[i] named names[i], each with its own poses, clock
 /// and initial guess). Throws UnobservableError naming the LiDAR when one cannot be determined
 /// even jointly (tz alone is reported, not thrown, as for one LiDAR), InputError on mismatched
 /// arguments. progress gets "<name>: <step>" for the per-LiDAR steps and "joint" for stage 2.
 RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::vector<std::string>& names,
-                              const PipelineConfig& config, const PipelineProgress& progress = {});
+                              const PipelineConfig& config, const PipelineProgress& progress = {},
+                              const RigBeside& beside = {});
 
 /// The overlap measure of JointConfig between the maps of two LiDARs (stitched, world frame).
 double map_overlap(const std::vector<Vec3f>& a_world, const std::vector<Vec3f>& b_world, double voxel_m);

@@ -90,21 +90,21 @@ std::string urdf_num(double v) { return fmt::format("{:.17g}", v + 0.0); }
 // maps are left in `maps` (start first, final last) for the rig's combined map, which shows the
 // same frames at the same extrinsics: stitched once, not twice.
 void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, const FrameStore& store, RunInfo run,
-                     const PipelineConfig& config, const RigOutputOptions& options, std::vector<MapSnapshot>& maps) {
+                     const PipelineConfig& config, const RigOutputOptions& options,
+                     std::optional<LidarReportDrawing>& drawn) {
   ensure_writable_dir(dir);
   const CalibrationResult& r = lidar.result;
   run.format_files = write_all_formats(dir, r.T_ins_lidar, FrameNames{"ins", lidar.name});
   write_opencalib_extrinsic(dir / "gnss-to-lidar-extrinsic.json", r.T_ins_lidar);
   if (options.report) {
+    if (!drawn) drawn = draw_lidar_report(r, store);
     ReportData data = report_data(r, store, run, config);
-    data.maps = report_maps(r, store);
     data.title = "insalign calibration report: LiDAR '" + lidar.name + "' of the rig";
     data.child_frame = lidar.name;
     data.command_line = options.command_line;
     data.warnings.insert(data.warnings.begin(), lidar.joint_note);
     data.output_files.push_back({"../report.html", "the whole rig's report"});
-    write_report(dir, data);
-    maps = std::move(data.maps);
+    write_report(dir, data, drawn->images);
   }
   json j = result_to_json(r, run);
   j["rig"] = {{"name", lidar.name}, {"joint_with", lidar.joint_with}, {"note", lidar.joint_note},
@@ -196,25 +196,39 @@ std::string format_rig_urdf(const RigResult& rig) {
   return s + "</robot>\n";
 }
 
+LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store) {
+  LidarReportDrawing out;
+  out.maps = report_maps(r, store);
+  out.images = draw_report_images(out.maps);
+  // The rig's report shows the first and the last map only: the others' points are not kept.
+  if (out.maps.size() > 2) out.maps.erase(out.maps.begin() + 1, out.maps.end() - 1);
+  return out;
+}
+
 std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path& out_dir, const RigResult& rig,
                                                      const std::vector<FrameStore>& stores,
                                                      const std::vector<RunInfo>& runs, const PipelineConfig& config,
                                                      const RigOutputOptions& options,
-                                                     const std::function<void(double)>& progress) {
+                                                     const std::function<void(double)>& progress,
+                                                     std::vector<std::optional<LidarReportDrawing>> drawn) {
   ensure_writable_dir(out_dir);
   const std::size_t n = rig.lidars.size();
-  std::vector<std::vector<MapSnapshot>> lidar_maps(n);
+  drawn.resize(n);
   // Each LiDAR's folder and report on its own: side by side, as one report alone leaves a core
   // idle in its serial parts. Every LiDAR's maps are kept for the combined report anyway.
   std::atomic<std::size_t> done{0};
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
-    write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options, lidar_maps[l]);
+    write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options, drawn[l]);
     if (progress) progress(static_cast<double>(++done) / (n + 1));
   });
   std::vector<std::filesystem::path> files;
   write_file_atomic(out_dir / kRigUrdfFile, format_rig_urdf(rig));
   files.push_back(out_dir / kRigUrdfFile);
-  if (options.report) files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line));
+  if (options.report) {
+    std::vector<std::vector<MapSnapshot>> lidar_maps(n);
+    for (std::size_t l = 0; l < n; ++l) lidar_maps[l] = std::move(drawn[l]->maps);
+    files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line));
+  }
   write_file_atomic(out_dir / kRigJsonFile, rig_to_json(rig).dump(2) + "\n");
   files.push_back(out_dir / kRigJsonFile);
   if (progress) progress(1.0);

@@ -7,11 +7,13 @@
 #include <filesystem>
 #include <functional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "core/rig.hpp"
+#include "io/report.hpp"
 #include "io/result_outputs.hpp"
 
 namespace insalign::io {
@@ -50,13 +52,23 @@ struct RigOutputOptions {
   std::string command_line;
 };
 
+/// A LiDAR's report pictures and the maps the rig's report reuses.
+struct LidarReportDrawing {
+  std::vector<MapSnapshot> maps;  ///< the first (start) and the last (final) map
+  ReportImages images;
+};
+/// Needs only the final extrinsic: calibrate draws it beside the repeatability study (RigBeside).
+LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store);
+
 /// Writes everything into out_dir (each file atomically; rig.json last: its presence means the
-/// whole result is there); returns the files written at the top level.
+/// whole result is there); returns the files written at the top level. drawn[l]: LiDAR l's
+/// report already drawn (missing or empty: drawn here).
 std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path& out_dir, const RigResult& rig,
                                                      const std::vector<FrameStore>& stores,
                                                      const std::vector<RunInfo>& runs, const PipelineConfig& config,
                                                      const RigOutputOptions& options,
-                                                     const std::function<void(double)>& progress = {});
+                                                     const std::function<void(double)>& progress = {},
+                                                     std::vector<std::optional<LidarReportDrawing>> drawn = {});
 
 /// What a LiDAR's steps after stage 1 left out, in one line (empty: nothing was screened); its
 /// own report and extrinsic.json list every span and why.
