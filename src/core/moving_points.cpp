@@ -47,6 +47,12 @@ struct HeightAbove {
   }
 };
 
+// The column (x, y) of an evidence voxel's key, and of a point: the key without its height bits.
+std::uint64_t column_of(std::uint64_t key) { return key >> 21; }
+std::uint64_t column_of(const Vec3f& p, double inv_voxel_m) {
+  return column_of(voxel_key(VoxelCell{floor_int(p.x() * inv_voxel_m), floor_int(p.y() * inv_voxel_m), 0}));
+}
+
 struct PlacedSweep {
   std::vector<Vec3f> p_world;
   Vec3f origin_start = Vec3f::Zero(), origin_end = Vec3f::Zero();  // LiDAR origin at sweep start, end
@@ -144,6 +150,25 @@ class FrameCells {
       add(evidence_.hit, voxel_key(v));
     }
   }
+  /// A ray sample at p: its evidence voxel is free (when p is judged). The same as cell() then
+  /// mark_free(), without a branch on whether p is judged: samples near the ground go either way
+  /// at random, and mispredicting that branch was most of the mask's time.
+  void mark_free_sample(const Vec3f& p) {
+    const std::int64_t gx = floor_int(p.x() * inv_cell_) - gx0_, gy = floor_int(p.y() * inv_cell_) - gy0_;
+    const std::int64_t ix = floor_int(p.x() * inv_voxel_) - x0_, iy = floor_int(p.y() * inv_voxel_) - y0_;
+    if (static_cast<std::uint64_t>(gx) >= static_cast<std::uint64_t>(gw_) ||
+        static_cast<std::uint64_t>(gy) >= static_cast<std::uint64_t>(gd_) ||
+        static_cast<std::uint64_t>(ix) >= static_cast<std::uint64_t>(w_) ||
+        static_cast<std::uint64_t>(iy) >= static_cast<std::uint64_t>(d_)) {
+      return mark_free_outside(p);  // rounding only: every sample lies in the box
+    }
+    const double h = p.z() - ground_[static_cast<std::size_t>(gy * gw_ + gx)] - c_.ground_clearance_m;  // NaN: no ground
+    const bool judged = (h >= 0.0) & (h < c_.max_height_m - c_.ground_clearance_m);
+    const std::int64_t iz = floor_int((judged ? h : 0.0) * inv_voxel_);
+    if (iz >= h_) return mark_free_outside(p);
+    const std::int64_t bit = (iz * d_ + iy) * w_ + ix;
+    free_[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t{judged} << (bit & 63);
+  }
   /// A voxel both hit and crossed is hit: evidence() leaves the box's hit voxels out of its free ones.
   void mark_free(const VoxelCell& v, std::int64_t bit) {
     if (bit >= 0) {
@@ -163,6 +188,11 @@ class FrameCells {
   }
 
  private:
+  void mark_free_outside(const Vec3f& p) {
+    VoxelCell v;
+    std::int64_t bit = -1;
+    if (cell(p, v, bit)) mark_free(v, bit);
+  }
   float ground_at(const Vec3f& p) const {
     const std::int64_t gx = floor_int(p.x() * inv_cell_), gy = floor_int(p.y() * inv_cell_);
     if (gx >= gx0_ && gx < gx0_ + gw_ && gy >= gy0_ && gy < gy0_ + gd_)
@@ -204,8 +234,7 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& gro
     const Vec3f ray = p - o;
     const double free_m = ray.norm() - c.end_margin_m;
     const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
-    for (float s = step; s * ray.norm() < free_m; s += step)
-      if (cells.cell(o + s * ray, v, bit)) cells.mark_free(v, bit);
+    for (float s = step; s * ray.norm() < free_m; s += step) cells.mark_free_sample(o + s * ray);
   }
   return std::move(cells).evidence();
 }
@@ -246,16 +275,19 @@ bool moving_space(const Counts& n, const MovingPointsConfig& c) {
 
 MovingPoints::MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double time_offset_s,
                            const MovingPointsConfig& config, VoxelKeyMap<float> ground_z_m,
-                           VoxelKeySet moving_voxels)
+                           const std::vector<std::uint64_t>& moving_voxels)
     : poses_(std::move(poses)),
       T_ins_lidar_(T_ins_lidar),
       time_offset_s_(time_offset_s),
       config_(config),
       ground_z_m_(std::move(ground_z_m)),
-      moving_voxels_(std::move(moving_voxels)) {}
+      moving_voxels_(moving_voxels.size()),
+      moving_columns_(moving_voxels.size()) {
+  for (std::uint64_t key : moving_voxels) moving_voxels_.insert(key), moving_columns_.insert(column_of(key));
+}
 
 bool MovingPoints::moving(const Vec3f& p_world) const {
-  if (!p_world.allFinite()) return false;
+  if (!p_world.allFinite() || !moving_columns_.contains(column_of(p_world, 1.0 / config_.voxel_m))) return false;
   const HeightAbove height{ground_z_m_, config_};
   const double h = height(p_world);
   if (!std::isfinite(h)) return false;
@@ -290,18 +322,18 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
     placed[k] = place(sweeps[k], store.poses(), T_ins_lidar, time_offset_s, store.sweep_period_s());
   });
   VoxelKeyMap<float> ground = ground_heights(placed, config);
-  VoxelKeySet moving_voxels;
+  std::vector<std::uint64_t> moving_voxels;
   for (const VoxelKeyMap<Counts>& part : count_evidence(placed, ground, config)) {
     part.for_each([&](std::uint64_t key, const Counts& n) {
       if (n.free < config.min_free_frames) return;
       ++result.voxels_judged;
       if (!moving_space(n, config)) return;
-      moving_voxels.insert(key);
+      moving_voxels.push_back(key);
       result.voxels_moving += n.hit > 0;
     });
   }
   auto mask = std::make_shared<const MovingPoints>(store.poses(), T_ins_lidar, time_offset_s, config,
-                                                   std::move(ground), std::move(moving_voxels));
+                                                   std::move(ground), moving_voxels);
   std::vector<std::pair<std::size_t, std::size_t>> tally(placed.size());  // checked, moving per frame
   tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
     for (const Vec3f& p : placed[k].p_world) tally[k].first += p.allFinite(), tally[k].second += mask->moving(p);

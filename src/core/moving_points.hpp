@@ -73,7 +73,7 @@ struct MovingPointsResult {
 class MovingPoints : public PointMask {
  public:
   MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double time_offset_s, const MovingPointsConfig& config,
-               VoxelKeyMap<float> ground_z_m, VoxelKeySet moving_voxels);
+               VoxelKeyMap<float> ground_z_m, const std::vector<std::uint64_t>& moving_voxels);
   std::vector<char> keep(std::size_t index, const Sweep& sweep) const override;
   std::vector<char> keep_world(std::size_t index, const std::vector<Vec3f>& p_world) const override;
   /// Whether a world point lies in moving space.
@@ -86,6 +86,8 @@ class MovingPoints : public PointMask {
   MovingPointsConfig config_;
   VoxelKeyMap<float> ground_z_m_;  ///< per ground cell
   VoxelKeySet moving_voxels_;       ///< the evidence voxels found moving
+  /// Their columns (x, y): most points have none above them and need no ground lookup.
+  VoxelKeySet moving_columns_;
 };
 
 /// Builds the mask from a sample of the store's frames placed with an extrinsic near the truth
