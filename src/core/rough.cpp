@@ -56,11 +56,12 @@ struct Cluster {
 };
 
 struct Problem {
-  std::vector<Iso3> T_world_ins;       ///< per local frame, at the frame time
-  std::vector<Cluster> clusters;       ///< grouped by plane
-  std::vector<std::size_t> plane_begin;  ///< cluster ranges: [plane_begin[j], plane_begin[j+1])
+  std::vector<Iso3> T_world_ins;                 ///< per local frame, at the frame time
+  /// Per plane, its clusters: each plane's own vector, as built, moved and never copied (a
+  /// round holds a few hundred thousand; copying them into one array kept a core idle).
+  std::vector<std::vector<Cluster>> planes_clusters;
   std::size_t residuals = 0;
-  std::size_t planes() const { return plane_begin.empty() ? 0 : plane_begin.size() - 1; }
+  std::size_t planes() const { return planes_clusters.size(); }
 };
 
 struct Accum {
@@ -100,12 +101,12 @@ struct PlaneFit {
 
 // The plane through the clusters, fitted twice: the second time with the Cauchy IRLS weights of
 // each cluster's RMS distance from the first; leaves the final weights and distances in `s`.
-PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, PlaneScratch& s) {
+PlaneFit fit_weighted_plane(const std::vector<Cluster>& clusters, double s2, PlaneScratch& s) {
   PlaneFit f;
   const std::size_t nc = s.A.size();
   s.s1.resize(nc), s.s2.resize(nc), s.h.resize(nc);
   for (std::size_t c = 0; c < nc; ++c) {
-    const Mat4& M = problem.clusters[c0 + c].M;
+    const Mat4& M = clusters[c].M;
     const double n = M(0, 0);
     const Vec3 As1 = s.A[c] * M.block<3, 1>(1, 0);
     s.s1[c] = n * s.b[c] + As1;
@@ -117,7 +118,7 @@ PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, P
     Vec3 S1 = Vec3::Zero();
     Mat3 S2 = Mat3::Zero();
     for (std::size_t c = 0; c < nc; ++c) {
-      N += s.w[c] * problem.clusters[c0 + c].M(0, 0);
+      N += s.w[c] * clusters[c].M(0, 0);
       S1 += s.w[c] * s.s1[c];
       S2 += s.w[c] * s.s2[c];
     }
@@ -129,7 +130,7 @@ PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, P
     for (std::size_t c = 0; c < nc; ++c) {
       Eigen::Vector4d& h = s.h[c];
       h << f.normal.dot(s.b[c] - f.centre), s.A[c].transpose() * f.normal;
-      const Mat4& M = problem.clusters[c0 + c].M;
+      const Mat4& M = clusters[c].M;
       s.e[c] = h.dot(M * h);
       s.w[c] = 1.0 / (1.0 + s.e[c] / M(0, 0) / s2);
     }
@@ -139,21 +140,21 @@ PlaneFit fit_weighted_plane(const Problem& problem, std::size_t c0, double s2, P
 
 // The plane's cost and, with derivatives, its Gauss-Newton terms with the plane's own three
 // parameters eliminated (Schur complement), into acc.
-void accumulate_plane(const Problem& problem, std::size_t c0, const Mat3& R, double s2, bool derivatives,
-                      const PlaneFit& f, const PlaneScratch& s, Accum& acc) {
+void accumulate_plane(const Problem& problem, const std::vector<Cluster>& clusters, const Mat3& R, double s2,
+                      bool derivatives, const PlaneFit& f, const PlaneScratch& s, Accum& acc) {
   Mat6 Hpp = Mat6::Zero();
   Mat63 Hpl = Mat63::Zero();
   Mat3 Hll = Mat3::Zero();
   Vec6 gp = Vec6::Zero();
   Vec3 gl = Vec3::Zero();
   for (std::size_t c = 0; c < s.A.size(); ++c) {
-    const Mat4& M = problem.clusters[c0 + c].M;
+    const Mat4& M = clusters[c].M;
     const double n = M(0, 0);
     acc.cost += n * s2 * std::log1p(s.e[c] / (n * s2));
     acc.weighted_sq += s.w[c] * s.e[c];
     acc.weighted_n += s.w[c] * n;
     if (!derivatives) continue;
-    const Mat3& R_wi = problem.T_world_ins[problem.clusters[c0 + c].frame].linear();
+    const Mat3& R_wi = problem.T_world_ins[clusters[c].frame].linear();
     const Eigen::Vector4d& h = s.h[c];
     // Per point r = h^T [1; p]. Pose Jacobian (rho, w) = P [1; p], plane Jacobian = L [1; p].
     const Vec3 m = R_wi.transpose() * f.normal;
@@ -188,17 +189,18 @@ Accum evaluate(const Problem& problem, const Iso3& T_ins_lidar, double robust_sc
   auto body = [&](const tbb::blocked_range<std::size_t>& range, Accum acc) {
     PlaneScratch s;
     for (std::size_t j = range.begin(); j != range.end(); ++j) {
-      const std::size_t c0 = problem.plane_begin[j], nc = problem.plane_begin[j + 1] - c0;
+      const std::vector<Cluster>& clusters = problem.planes_clusters[j];
+      const std::size_t nc = clusters.size();
       s.A.resize(nc);
       s.b.resize(nc);
       s.e.resize(nc);
       s.w.assign(nc, 1.0);
       for (std::size_t c = 0; c < nc; ++c) {
-        const Iso3& T_wi = problem.T_world_ins[problem.clusters[c0 + c].frame];
+        const Iso3& T_wi = problem.T_world_ins[clusters[c].frame];
         s.A[c] = T_wi.linear() * R;
         s.b[c] = T_wi.linear() * t + T_wi.translation();
       }
-      accumulate_plane(problem, c0, R, s2, derivatives, fit_weighted_plane(problem, c0, s2, s), s, acc);
+      accumulate_plane(problem, clusters, R, s2, derivatives, fit_weighted_plane(clusters, s2, s), s, acc);
     }
     return acc;
   };
@@ -245,20 +247,14 @@ void add_window(const std::vector<std::uint32_t>& frames, const std::vector<std:
   });
   for (std::size_t j = 0; j < planes.size(); ++j) {
     if (per_plane[j].size() < min_frames) continue;
-    if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
-    problem.clusters.insert(problem.clusters.end(), per_plane[j].begin(), per_plane[j].end());
-    problem.plane_begin.push_back(problem.clusters.size());
+    problem.planes_clusters.push_back(std::move(per_plane[j]));
     problem.residuals += planes[j].point_indices.size();
   }
 }
 
 // Appends the planes (clusters) of `part`, built over the same local frames, to `problem`.
-void append_planes(const Problem& part, Problem& problem) {
-  if (part.planes() == 0) return;
-  if (problem.plane_begin.empty()) problem.plane_begin.push_back(0);
-  const std::size_t offset = problem.clusters.size();
-  problem.clusters.insert(problem.clusters.end(), part.clusters.begin(), part.clusters.end());
-  for (std::size_t j = 1; j < part.plane_begin.size(); ++j) problem.plane_begin.push_back(offset + part.plane_begin[j]);
+void append_planes(Problem&& part, Problem& problem) {
+  for (std::vector<Cluster>& clusters : part.planes_clusters) problem.planes_clusters.push_back(std::move(clusters));
   problem.residuals += part.residuals;
 }
 
@@ -270,7 +266,7 @@ PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observa
   Problem problem;
   for (std::size_t k = 0; k < observations.size(); ++k) {
     const PlaneObservation& o = observations[k];
-    if (k == 0 || o.plane != observations[k - 1].plane) problem.plane_begin.push_back(problem.clusters.size());
+    if (k == 0 || o.plane != observations[k - 1].plane) problem.planes_clusters.emplace_back();
     problem.T_world_ins.push_back(o.T_world_ins);
     Cluster c;
     c.frame = static_cast<std::uint32_t>(k);
@@ -279,9 +275,8 @@ PointPlaneSystem point_plane_system(const std::vector<PlaneObservation>& observa
       q << 1.0, p.cast<double>();
       c.M += q * q.transpose();
     }
-    problem.clusters.push_back(c);
+    problem.planes_clusters.back().push_back(c);
   }
-  problem.plane_begin.push_back(problem.clusters.size());
   const Accum acc = evaluate(problem, T_ins_lidar, robust_scale_m, true);
   PointPlaneSystem system;
   system.cost = acc.cost;
@@ -377,10 +372,7 @@ Problem build_round_problem(const RoughFrames& frames, const PoseStream& poses, 
   tbb::parallel_for(std::size_t{0}, windows_frames.size(), [&](std::size_t w) {
     add_window(windows_frames[w], p_lidar, placed, T_ins_lidar, plane_config, config.min_frames_per_plane, parts[w]);
   });
-  std::size_t clusters = 0;
-  for (const Problem& part : parts) clusters += part.clusters.size();
-  problem.clusters.reserve(clusters);
-  for (Problem& part : parts) append_planes(part, problem), part = Problem{};  // freed as it is copied
+  for (Problem& part : parts) append_planes(std::move(part), problem);
   *windows = static_cast<int>(windows_frames.size());
   return problem;
 }
