@@ -1,6 +1,7 @@
 #include "core/moving_points.hpp"
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -81,7 +82,8 @@ VoxelKeyMap<float> ground_heights(const std::vector<PlacedSweep>& frames, const 
   for (const PlacedSweep& f : frames)
     for (const Vec3f& p : f.p_world)
       if (p.allFinite()) key_z.emplace_back(ground_key(p, inv), p.z());
-  std::sort(key_z.begin(), key_z.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  // In parallel: a cell's ground is the value at a rank, whatever the order of its equal keys.
+  tbb::parallel_sort(key_z.begin(), key_z.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   VoxelKeyMap<float> ground;
   for (auto first = key_z.begin(); first != key_z.end();) {
     const auto last = std::find_if(first, key_z.end(), [&](const auto& e) { return e.first != first->first; });
