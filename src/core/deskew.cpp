@@ -20,8 +20,7 @@ std::vector<Vec3f> sweep_to_world(const Sweep& sweep, const PoseStream& poses, c
   }
   // Knots over the sweep's time span; each point blends the two knot poses around it, which is
   // exact to second order in the motion between knots and costs two transforms per point.
-  const float dt_min = *std::min_element(sweep.dt_s.begin(), sweep.dt_s.end());
-  const float dt_max = *std::max_element(sweep.dt_s.begin(), sweep.dt_s.end());
+  const auto [dt_min, dt_max] = dt_range(sweep);
   const double span = std::max<double>(dt_max - dt_min, 1e-9);
   const int n_knots = std::max(2, static_cast<int>(std::ceil(span / options.knot_spacing_s)) + 1);
   const double step = span / (n_knots - 1);

@@ -12,13 +12,6 @@ namespace {
 
 constexpr double kPeriodSlack = 1.1;  // sweeps are a little longer than the nominal period (jitter)
 
-// [lo, hi] of the point times relative to the frame time (<= 0), or [0, 0] without times.
-std::pair<double, double> dt_range(const Sweep& sweep) {
-  if (!sweep.has_time() || sweep.dt_s.empty()) return {0.0, 0.0};
-  const auto [lo, hi] = std::minmax_element(sweep.dt_s.begin(), sweep.dt_s.end());
-  return {*lo, *hi};
-}
-
 }  // namespace
 
 Sweep thin_sweep(const Sweep& sweep, const SweepFilter& filter) {

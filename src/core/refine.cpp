@@ -129,11 +129,8 @@ struct Knots {
   }
 };
 Knots make_knots(const Sweep& sweep, const PoseStream& poses, double time_offset_s) {
-  double lo = 0.0, hi = 0.0;
-  if (sweep.has_time()) {
-    lo = *std::min_element(sweep.dt_s.begin(), sweep.dt_s.end());
-    hi = *std::max_element(sweep.dt_s.begin(), sweep.dt_s.end());
-  }
+  const auto [lo_f, hi_f] = dt_range(sweep);
+  const double lo = lo_f, hi = hi_f;
   Knots k;
   const int n = std::max(2, static_cast<int>(std::ceil((hi - lo) / 0.01)) + 1);
   k.t0 = lo;

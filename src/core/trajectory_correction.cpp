@@ -99,8 +99,7 @@ struct PoseTable {
 };
 PoseTable make_table(const Sweep& sweep, const PoseStream& poses, double offset_s) {
   PoseTable table;
-  double lo = 0.0;
-  if (sweep.has_time()) lo = *std::min_element(sweep.dt_s.begin(), sweep.dt_s.end());
+  const double lo = dt_range(sweep).first;
   table.t0_s = lo;
   const int n = std::max(1, static_cast<int>(std::ceil(-lo / kTableStep_s)) + 1);
   for (int i = 0; i < n; ++i) {

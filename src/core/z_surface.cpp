@@ -105,12 +105,9 @@ namespace {
 // point, with a half again for the poses between those times.
 double placement_change_m(const Sweep& part, const PoseStream& poses, const Iso3& T_a, double offset_a,
                           const Iso3& T_b, double offset_b) {
-  float range_m = 0.0f, dt_lo = 0.0f, dt_hi = 0.0f;
+  float range_m = 0.0f;
   for (const Vec3f& p : part.p_lidar) range_m = std::max(range_m, p.norm());
-  if (part.has_time()) {
-    const auto [lo, hi] = std::minmax_element(part.dt_s.begin(), part.dt_s.end());
-    dt_lo = *lo, dt_hi = *hi;
-  }
+  const auto [dt_lo, dt_hi] = dt_range(part);
   double change = 0.0;
   for (const double dt : {double(dt_lo), 0.5 * (dt_lo + dt_hi), double(dt_hi)}) {
     const Iso3 A = poses.T_world_ins(part.t_end_s + dt + offset_a) * T_a;
