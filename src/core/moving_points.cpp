@@ -48,11 +48,6 @@ struct HeightAbove {
   }
 };
 
-// The column (x, y) of an evidence voxel's key, and of a point: the key without its height bits.
-std::uint64_t column_of(std::uint64_t key) { return key >> 21; }
-std::uint64_t column_of(const Vec3f& p, double inv_voxel_m) {
-  return column_of(voxel_key(VoxelCell{floor_int(p.x() * inv_voxel_m), floor_int(p.y() * inv_voxel_m), 0}));
-}
 
 struct PlacedSweep {
   std::vector<Vec3f> p_world;
@@ -283,13 +278,62 @@ MovingPoints::MovingPoints(PoseStream poses, const Iso3& T_ins_lidar, double tim
       time_offset_s_(time_offset_s),
       config_(config),
       ground_z_m_(std::move(ground_z_m)),
-      moving_voxels_(moving_voxels.size()),
-      moving_columns_(moving_voxels.size()) {
-  for (std::uint64_t key : moving_voxels) moving_voxels_.insert(key), moving_columns_.insert(column_of(key));
+      moving_voxels_(moving_voxels.size()) {
+  for (std::uint64_t key : moving_voxels) moving_voxels_.insert(key);
+  build_box(moving_voxels);
+}
+
+void MovingPoints::build_box(const std::vector<std::uint64_t>& moving_voxels) {
+  if (moving_voxels.empty()) return;
+  VoxelCell lo = voxel_cell_of(moving_voxels.front()), hi = lo;
+  for (std::uint64_t key : moving_voxels) {
+    const VoxelCell c = voxel_cell_of(key);
+    lo = {std::min(lo.x, c.x), std::min(lo.y, c.y), std::min(lo.z, c.z)};
+    hi = {std::max(hi.x, c.x), std::max(hi.y, c.y), std::max(hi.z, c.z)};
+  }
+  constexpr double kMaxBits = double(std::int64_t{1} << 27);  // 16 MB
+  Box b;
+  b.lo = lo, b.w = hi.x - lo.x + 1, b.d = hi.y - lo.y + 1, b.h = hi.z - lo.z + 1;
+  if (double(b.w) * double(b.d) * double(b.h) > kMaxBits) return;
+  b.bits.assign(static_cast<std::size_t>((b.w * b.d * b.h + 63) / 64), 0);
+  for (std::uint64_t key : moving_voxels) {
+    const VoxelCell c = voxel_cell_of(key);
+    const std::int64_t bit = ((c.z - lo.z) * b.d + (c.y - lo.y)) * b.w + (c.x - lo.x);
+    b.bits[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t{1} << (bit & 63);
+  }
+  // Every ground cell a point of a box column can fall in, with one to spare for rounding.
+  const double cells_per_voxel = config_.voxel_m / config_.ground_cell_m;
+  b.gx0 = floor_int(double(lo.x) * cells_per_voxel) - 1, b.gy0 = floor_int(double(lo.y) * cells_per_voxel) - 1;
+  b.gw = floor_int(double(hi.x + 1) * cells_per_voxel) + 2 - b.gx0;
+  b.gd = floor_int(double(hi.y + 1) * cells_per_voxel) + 2 - b.gy0;
+  b.ground_z_m.resize(static_cast<std::size_t>(b.gw * b.gd));
+  for (std::int64_t gy = 0; gy < b.gd; ++gy)
+    for (std::int64_t gx = 0; gx < b.gw; ++gx) {
+      const float* z = ground_z_m_.find(voxel_key(VoxelCell{b.gx0 + gx, b.gy0 + gy, 0}));
+      b.ground_z_m[static_cast<std::size_t>(gy * b.gw + gx)] = z ? *z : std::numeric_limits<float>::quiet_NaN();
+    }
+  box_ = std::move(b);
 }
 
 bool MovingPoints::moving(const Vec3f& p_world) const {
-  if (!p_world.allFinite() || !moving_columns_.contains(column_of(p_world, 1.0 / config_.voxel_m))) return false;
+  if (!p_world.allFinite()) return false;
+  if (box_.bits.empty()) return moving_in_maps(p_world);
+  const Box& b = box_;
+  const double inv_voxel = 1.0 / config_.voxel_m;
+  const std::int64_t ix = floor_int(p_world.x() * inv_voxel) - b.lo.x, iy = floor_int(p_world.y() * inv_voxel) - b.lo.y;
+  if (ix < 0 || ix >= b.w || iy < 0 || iy >= b.d) return false;  // no moving voxel in this column
+  const double inv_cell = 1.0 / config_.ground_cell_m;
+  const std::int64_t gx = floor_int(p_world.x() * inv_cell) - b.gx0, gy = floor_int(p_world.y() * inv_cell) - b.gy0;
+  if (gx < 0 || gx >= b.gw || gy < 0 || gy >= b.gd) return moving_in_maps(p_world);
+  const double h = p_world.z() - b.ground_z_m[static_cast<std::size_t>(gy * b.gw + gx)] - config_.ground_clearance_m;
+  if (!(h >= 0.0 && h < config_.max_height_m - config_.ground_clearance_m)) return false;  // NaN: no ground
+  const std::int64_t iz = floor_int(h * inv_voxel) - b.lo.z;
+  if (iz < 0 || iz >= b.h) return false;
+  const std::int64_t bit = (iz * b.d + iy) * b.w + ix;
+  return (b.bits[static_cast<std::size_t>(bit >> 6)] >> (bit & 63)) & 1;
+}
+
+bool MovingPoints::moving_in_maps(const Vec3f& p_world) const {
   const HeightAbove height{ground_z_m_, config_};
   const double h = height(p_world);
   if (!std::isfinite(h)) return false;

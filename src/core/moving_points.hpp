@@ -86,8 +86,19 @@ class MovingPoints : public PointMask {
   MovingPointsConfig config_;
   VoxelKeyMap<float> ground_z_m_;  ///< per ground cell
   VoxelKeySet moving_voxels_;       ///< the evidence voxels found moving
-  /// Their columns (x, y): most points have none above them and need no ground lookup.
-  VoxelKeySet moving_columns_;
+  /// The moving voxels as bits over their box, and the ground heights over it: the maps' answers
+  /// without their cache misses (every point of every stage and of the report is asked; a
+  /// drive's box is tens of kilobytes). Empty when it would be too large: the maps answer.
+  struct Box {
+    VoxelCell lo;                      ///< the evidence voxel at the box's corner
+    std::int64_t w = 0, d = 0, h = 0;  ///< voxels along x, y, height
+    std::vector<std::uint64_t> bits;
+    std::int64_t gx0 = 0, gy0 = 0, gw = 0, gd = 0;  ///< the ground cells under it
+    std::vector<float> ground_z_m;                  ///< NaN: no ground
+  };
+  Box box_;
+  void build_box(const std::vector<std::uint64_t>& moving_voxels);
+  bool moving_in_maps(const Vec3f& p_world) const;
 };
 
 /// Builds the mask from a sample of the store's frames placed with an extrinsic near the truth

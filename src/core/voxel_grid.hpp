@@ -40,6 +40,13 @@ inline std::uint64_t voxel_key(const VoxelCell& c) {
   return ((static_cast<std::uint64_t>(c.x + kOffset) & kMask) << 42) |
          ((static_cast<std::uint64_t>(c.y + kOffset) & kMask) << 21) | (static_cast<std::uint64_t>(c.z + kOffset) & kMask);
 }
+/// The cell of a key (the inverse of voxel_key for cells within its range).
+inline VoxelCell voxel_cell_of(std::uint64_t key) {
+  constexpr std::int64_t kOffset = std::int64_t{1} << 20;
+  constexpr std::uint64_t kMask = (std::uint64_t{1} << 21) - 1;
+  return {static_cast<std::int64_t>((key >> 42) & kMask) - kOffset, static_cast<std::int64_t>((key >> 21) & kMask) - kOffset,
+          static_cast<std::int64_t>(key & kMask) - kOffset};
+}
 inline std::uint64_t voxel_key(const Vec3f& p_m, double inv_voxel_m) { return voxel_key(voxel_cell(p_m, inv_voxel_m)); }
 inline std::uint64_t voxel_key(const Vec3& p_m, double inv_voxel_m) { return voxel_key(voxel_cell(p_m, inv_voxel_m)); }
 
