@@ -48,7 +48,6 @@ struct HeightAbove {
   }
 };
 
-
 struct PlacedSweep {
   std::vector<Vec3f> p_world;
   Vec3f origin_start = Vec3f::Zero(), origin_end = Vec3f::Zero();  // LiDAR origin at sweep start, end
@@ -149,7 +148,7 @@ class FrameCells {
   }
   /// A ray sample at p: its evidence voxel is free (when p is judged). The same as cell() then
   /// mark_free(), without a branch on whether p is judged: samples near the ground go either way
-  /// at random, and mispredicting that branch was most of the mask's time.
+  /// at random, and that branch was often mispredicted.
   void mark_free_sample(const Vec3f& p) {
     const std::int64_t gx = floor_int(p.x() * inv_cell_) - gx0_, gy = floor_int(p.y() * inv_cell_) - gy0_;
     const std::int64_t ix = floor_int(p.x() * inv_voxel_) - x0_, iy = floor_int(p.y() * inv_voxel_) - y0_;
