@@ -2,6 +2,7 @@
 // DOFs, a drifting INS's height error in tz's stddev, and the INS's heading error in yaw's.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <memory>
 
@@ -20,18 +21,47 @@ TEST(Repeatability, StddevFloorPoolsTheSegmentsInflation) {
   Vec6 formal;
   formal << 1e-4, 1e-4, 1.0, 1e-5, 1e-5, 1e-5;
   RepeatabilityResult rep;
+  rep.segments_ok = 3;
   rep.stddev_whole_drive << 3e-3, 1e-5, std::numeric_limits<double>::infinity(), 3e-4, 3e-4, 3e-4;
   const Vec6 sd = stddev_with_repeatability(formal, rep);
-  // Inflation: geometric mean of 30, 0.1, 30, 30, 30 = 30 * 300^(-1/5).
-  const double inflation = 30.0 * std::pow(300.0, -0.2);
+  // Inflation: geometric mean of 30, 0.1, 30, 30, 30 = 30 * 300^(-1/5) (x, y, yaw alone: lower),
+  // over the geometric mean's shortfall for three segments.
+  const double inflation = 30.0 * std::pow(300.0, -0.2) / 0.843;
   EXPECT_NEAR(sd[1], inflation * 1e-4, 1e-9);
   EXPECT_GT(sd[1], 10.0 * rep.stddev_whole_drive[1]);
   EXPECT_DOUBLE_EQ(sd[0], 3e-3);
-  EXPECT_DOUBLE_EQ(sd[3], 3e-4);
+  EXPECT_DOUBLE_EQ(sd[5], 3e-4);
+  EXPECT_NEAR(sd[3], 30.0 / 0.843 * 1e-5, 1e-12);  // roll and pitch: their own 30 over the shortfall
   EXPECT_DOUBLE_EQ(sd[2], 1.0);  // tz is not the segments' business
   // No segments: the formal stddev stays.
   const Vec6 none = stddev_with_repeatability(formal, RepeatabilityResult{});
   for (int i = 0; i < 6; ++i) EXPECT_DOUBLE_EQ(none[i], formal[i]) << i;
+}
+
+// The formal stddev is the more optimistic for x, y and yaw (the turns') than for roll and pitch
+// (the ground's): a DOF takes its kind's inflation when that is above the drive's.
+TEST(Repeatability, EachKindOfDofTakesTheLargerInflation) {
+  Vec6 formal;
+  formal << 1e-4, 1e-4, 1.0, 1e-5, 1e-5, 1e-5;
+  RepeatabilityResult rep;
+  rep.segments_ok = 3;
+  // segments / formal: x 40, y 20, roll 10, pitch 10, yaw 40.
+  rep.stddev_whole_drive << 4e-3, 2e-3, std::numeric_limits<double>::infinity(), 1e-4, 1e-4, 4e-4;
+  const Vec6 sd = stddev_with_repeatability(formal, rep);
+  const double drive = std::pow(40.0 * 20.0 * 10.0 * 10.0 * 40.0, 0.2), turns = std::pow(40.0 * 20.0 * 40.0, 1.0 / 3.0);
+  ASSERT_GT(turns, drive);
+  EXPECT_NEAR(sd[1], turns / 0.843 * 1e-4, 1e-12);  // above the segments' 2e-3
+  EXPECT_NEAR(sd[0], std::max(4e-3, turns / 0.843 * 1e-4), 1e-12);
+  EXPECT_NEAR(sd[3], drive / 0.843 * 1e-5, 1e-12);  // the ground's own 10 is below the drive's
+  EXPECT_NEAR(sd[4], drive / 0.843 * 1e-5, 1e-12);
+  EXPECT_NEAR(sd[5], std::max(4e-4, turns / 0.843 * 1e-5), 1e-12);
+}
+
+// The whole drive's stddev from a spread of n segments: spread / (d_n sqrt(n)).
+TEST(Repeatability, WholeDriveStddevPerSpread) {
+  EXPECT_NEAR(whole_drive_stddev_per_spread(3), 1.0 / (1.693 * std::sqrt(3.0)), 1e-12);
+  EXPECT_NEAR(whole_drive_stddev_per_spread(2), 1.0 / (1.128 * std::sqrt(2.0)), 1e-12);
+  EXPECT_EQ(whole_drive_stddev_per_spread(9), whole_drive_stddev_per_spread(5));
 }
 
 // An RTK-fixed INS states a constant accuracy: the assumed height error stays. A drifting one

@@ -68,14 +68,19 @@ struct RepeatabilityInputs {
   double time_offset_full_s = 0.0;           ///< the full run's time offset
 };
 
+/// The whole drive's stddev per unit of the spread (largest - smallest) of `segments` segment
+/// results: 1 / (d_n sqrt(n)), d_n the mean range of n normal draws (n above 5: 5's).
+double whole_drive_stddev_per_spread(int segments);
+
 /// The stddev to report from the formal one (m, rad; the stages' least-squares value) and the
 /// segments': per DOF the largest of the formal stddev, the segments' stddev_whole_drive, and the
-/// formal stddev times the segments' typical inflation (the geometric mean over the DOFs that
-/// have both of stddev_whole_drive / formal). A spread from 3 segments has 2 degrees of freedom
-/// and comes out near 0 by chance (seen: y 0.19 mm for an error of 0.9 mm); how far the formal
-/// stddev underestimates (residuals are correlated, not independent) is a property of the drive
-/// shared by its DOFs, and pooled over five DOFs it has about 10. DOFs without a finite
-/// segment value keep their formal stddev.
+/// formal stddev times the segments' typical inflation. A spread from 3 segments has 2 degrees
+/// of freedom and comes out near 0 by chance (seen: y 0.19 mm for an error of 0.9 mm); how far
+/// the formal stddev underestimates (residuals are correlated, not independent) is a property of
+/// the drive, pooled over DOFs: the geometric mean of stddev_whole_drive / formal, over all five
+/// DOFs and over those of the DOF's kind (x, y, yaw: the turns; roll, pitch: the ground), the
+/// larger of the two, divided by the geometric mean's known shortfall for that many segments.
+/// DOFs without a finite segment value keep their formal stddev.
 Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability);
 
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,

@@ -10,6 +10,7 @@
 
 #include "core/errors.hpp"
 #include "core/map_registration.hpp"
+#include "core/repeatability.hpp"
 #include "core/stitch.hpp"
 #include "core/voxel_grid.hpp"
 #include "core/z_surface.hpp"
@@ -394,12 +395,6 @@ std::vector<std::size_t> frames_in(const RefineLidar& in, double t0_s, double t1
   return out;
 }
 
-// The expected range of n normal samples in sigmas (d_n of the range method).
-double range_factor(std::size_t n) {
-  constexpr double kRangeFactor[] = {1.0, 1.0, 1.128, 1.693, 2.059, 2.326};
-  return kRangeFactor[std::min<std::size_t>(n, 5)];
-}
-
 // The segments' spread per LiDAR, and what it says of the whole drive (as repeatability.cpp:
 // range / (d_n sqrt(n)) for n segments), widening the formal stddevs as run_calibration does.
 void spread_into(const std::vector<JointRefineResult>& segments, std::size_t k, const std::vector<double>& bounds,
@@ -430,15 +425,15 @@ void spread_into(const std::vector<JointRefineResult>& segments, std::size_t k, 
   // widens that relative part; the anchor's own tz stays stage 3's.
   const bool tz_relative = std::isfinite(lidar.tz_relative_stddev_m) && lidar.tz_relative_stddev_m > 0.0;
   if (!tz_relative) rep.spread[2] = 0.0;
-  const double d_n = range_factor(rep.segments_ok);
-  for (int i : {0, 1, 3, 4, 5}) rep.stddev_whole_drive[i] = rep.spread[i] / (d_n * std::sqrt(double(rep.segments_ok)));
+  const double per_spread = whole_drive_stddev_per_spread(rep.segments_ok);
+  for (int i : {0, 1, 3, 4, 5}) rep.stddev_whole_drive[i] = rep.spread[i] * per_spread;
   // The one LiDAR's rule (core/repeatability): at least the segments' spread, and the formal
   // stddev inflated by the DOFs' pooled segments/formal ratio (three segments agree by chance).
   const Vec6 widened = stddev_with_repeatability(r.stddev, rep);
   for (int i : {0, 1, 3, 4, 5})
     if (r.determined[i]) r.stddev[i] = widened[i];
   if (tz_relative) {
-    rep.stddev_whole_drive[2] = rep.spread[2] / (d_n * std::sqrt(double(rep.segments_ok)));
+    rep.stddev_whole_drive[2] = rep.spread[2] * per_spread;
     lidar.tz_relative_stddev_m = std::max(lidar.tz_relative_stddev_m, rep.stddev_whole_drive[2]);
   }
   if (rep.spread.head<2>().maxCoeff() > config.warn_trans_m || rep.spread.tail<3>().maxCoeff() > config.warn_rot_deg * kRadPerDeg) {
@@ -665,7 +660,7 @@ Vec6 pair_spread_stddev(const RigLidar& a, const RigLidar& b, const Iso3& T_a_b)
     lo = lo.cwiseMin(v), hi = hi.cwiseMax(v), ++ok;
   }
   if (ok < 2) return Vec6::Zero();
-  return (hi - lo) / (range_factor(ok) * std::sqrt(double(ok)));
+  return (hi - lo) * whole_drive_stddev_per_spread(static_cast<int>(ok));
 }
 
 // Every pair's transform and its covariance (pair_covariance), each DOF widened to at least the
