@@ -123,6 +123,31 @@ TEST(Refine, ContinuousImprovesAPerturbedStart) {
   EXPECT_LT(r.occupied_voxels_after, r.occupied_voxels_before);
 }
 
+// Stage 2's share of the INS's slow position error: linear in the error's size; an error common
+// to the whole drive (a correlation far longer than the drive) moves no frame against another and
+// leaves nothing, as the plane offsets follow their points.
+TEST(Refine, InsPositionStddevFollowsTheErrorModel) {
+  const testing::TestDrive drive = make_drive(2, 25.0, 0.0);
+  RefineConfig c = test_config();
+  c.estimate_time_offset = false;
+  const RefineResult base = refine(drive, drive.T_ins_lidar_true, 0.0, c);
+  for (int i : {0, 1, 3, 4, 5}) ASSERT_GT(base.ins_position_stddev[i], 0.0) << i;
+  EXPECT_EQ(base.ins_position_stddev[2], 0.0);  // tz is held
+  RefineConfig twice = c;
+  twice.ins_position_sigma_m *= 2.0, twice.ins_vertical_sigma_m *= 2.0;
+  const RefineResult doubled = refine(drive, drive.T_ins_lidar_true, 0.0, twice);
+  RefineConfig common = c;
+  common.ins_error_correlation_s = 1e9;
+  const RefineResult shared = refine(drive, drive.T_ins_lidar_true, 0.0, common);
+  for (int i : {0, 1, 3, 4, 5}) {
+    EXPECT_NEAR(doubled.ins_position_stddev[i], 2.0 * base.ins_position_stddev[i], 1e-9 * base.ins_position_stddev[i]) << i;
+    EXPECT_LT(shared.ins_position_stddev[i], 1e-2 * base.ins_position_stddev[i]) << i;
+  }
+  std::printf("INS share: x %.3f y %.3f mm, roll %.5f pitch %.5f yaw %.5f deg\n", 1e3 * base.ins_position_stddev[0],
+              1e3 * base.ins_position_stddev[1], base.ins_position_stddev[3] * kDegPerRad,
+              base.ins_position_stddev[4] * kDegPerRad, base.ins_position_stddev[5] * kDegPerRad);
+}
+
 TEST(Refine, OccupancyGridSearchImprovesAPerturbedStart) {
   const testing::TestDrive drive = make_drive(4, 25.0, 0.0);
   const Iso3 start = perturbed(drive.T_ins_lidar_true, 5);

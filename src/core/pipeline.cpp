@@ -184,6 +184,13 @@ void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r) {
   if (std::isfinite(r.stddev[5])) r.stddev[5] = std::hypot(r.stddev[5], r.ins_heading_sigma_rad);
 }
 
+// A floor, not a sum: part of that error (its faster wander) the segments' spread already holds.
+void add_ins_position_error(CalibrationResult& r) {
+  if (!r.refine) return;
+  for (int i : {0, 1, 3, 4, 5})
+    if (std::isfinite(r.stddev[i])) r.stddev[i] = std::max(r.stddev[i], r.refine->ins_position_stddev[i]);
+}
+
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
                                   const PipelineProgress& progress_in, const BesideRepeatability& beside) {
   const auto start = std::chrono::steady_clock::now();
@@ -212,6 +219,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
   run_finish(placed, groups, refine_frames, config, progress, r, beside, &near);  // steps 4-5
+  add_ins_position_error(r);
   add_ins_heading_error(config, r);
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);

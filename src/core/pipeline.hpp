@@ -120,6 +120,9 @@ FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& l
 /// Yaw's stddev with the INS's heading error (config.ins_heading_sigma_deg) added: the last step,
 /// after anything that compares LiDARs of one INS (their heading error is common).
 void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);
+/// Each stddev at least stage 2's share of the INS's slow position error (RefineResult::
+/// ins_position_stddev), which the repeatability segments cannot show.
+void add_ins_position_error(CalibrationResult& r);
 /// Work that needs the final extrinsic but none of its stddevs (the report's maps), run beside the
 /// repeatability study, which changes only stddevs and warnings: given the result before the study.
 using BesideRepeatability = std::function<void(const CalibrationResult& r)>;

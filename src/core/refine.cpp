@@ -260,6 +260,31 @@ void refit_planes(PlaneGrouping& g) {
   });
 }
 
+// d(point-to-plane residual) / d(the point's LiDAR's parameters), at knot kk of its frame.
+Vec7 point_jacobian(const Vec3& normal, const Knots& kn, int kk, const Mat3& R_ins_lidar, const Vec3f& p_lidar,
+                    const Vec3& q_world) {
+  const Vec3 a = R_ins_lidar * p_lidar.cast<double>();  // rotated point, INS axes
+  const Vec3 m_ins = kn.R_world_ins[kk].transpose() * normal;
+  Vec7 J;
+  J.head<3>() = m_ins;
+  J.segment<3>(3) = a.cross(m_ins);
+  J(kTimeIndex) = normal.dot(kn.v_world[kk] + kn.w_world[kk].cross(q_world - kn.t_world_ins[kk]));
+  return J;
+}
+
+double huber_weight(double residual_m, const RefineConfig& config) {
+  const double ar = std::abs(residual_m);
+  return ar <= config.huber_m ? 1.0 : config.huber_m / ar;
+}
+
+std::vector<Knots> frame_knots(const Problem& p, const States& s) {
+  std::vector<Knots> knots(p.frames.size());
+  tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
+    knots[f] = make_knots(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
+  });
+  return knots;
+}
+
 // One plane's sums per LiDAR present in it (a plane eliminates its offset over all its points,
 // which is what ties one LiDAR's points to another's).
 struct PlaneSums {
@@ -312,10 +337,7 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
   }
   gather_world(p_world, g);
   if (!fit) refit_planes(g);
-  std::vector<Knots> knots(p.frames.size());
-  tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
-    knots[f] = make_knots(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
-  });
+  const std::vector<Knots> knots = frame_knots(p, s);
   const std::size_t n_lidars = p.lidars();
   tbb::combinable<NormalEquations> acc([n_lidars] { return NormalEquations(n_lidars); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.planes(), 256), [&](const auto& r) {
@@ -331,14 +353,8 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
         const int kk = kn.nearest(g.dt_s[m] - kn.t0);
         const Vec3 q = g.p_world[m].cast<double>();
         const double res = plane.normal.dot(q - plane.centroid);
-        const Vec3 a = s[l].T_ins_lidar.linear() * g.p_lidar[m].cast<double>();  // rotated point, INS axes
-        const Vec3 m_ins = kn.R_world_ins[kk].transpose() * plane.normal;
-        Vec7 J;
-        J.head<3>() = m_ins;
-        J.segment<3>(3) = a.cross(m_ins);
-        J(kTimeIndex) = plane.normal.dot(kn.v_world[kk] + kn.w_world[kk].cross(q - kn.t_world_ins[kk]));
-        const double ar = std::abs(res);
-        const double w = ar <= config.huber_m ? 1.0 : config.huber_m / ar;
+        const Vec7 J = point_jacobian(plane.normal, kn, kk, s[l].T_ins_lidar.linear(), g.p_lidar[m], q);
+        const double w = huber_weight(res, config);
         sums.add(l, J, w);
         ne.g[l] += w * res * J;
         ne.cost += w * res * res;
@@ -354,6 +370,80 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
   acc.combine_each([&](const NormalEquations& ne) { total += ne; });
   for (std::size_t l = 0; l < n_lidars; ++l) total.block(l, l) = total.block(l, l).selfadjointView<Eigen::Upper>();
   return total;
+}
+
+// How stage 2's gradient moves when the INS misplaces frame f by e_f (world frame): g += G[f] e_f,
+// G[f] 7N x 3. A plane's offset follows its points (as in PlaneSums::eliminate_into), so a shift
+// common to every frame moves nothing: only what differs between frames counts.
+std::vector<Eigen::MatrixX3d> frame_shift_sensitivity(const Problem& p, const States& s, const RefineConfig& config,
+                                                      const PlaneGrouping& g) {
+  const std::vector<Knots> knots = frame_knots(p, s);
+  const Eigen::Index n_all = kRefineParams * static_cast<Eigen::Index>(p.lidars());
+  const auto zero = [&] { return std::vector<Eigen::MatrixX3d>(p.frames.size(), Eigen::MatrixX3d::Zero(n_all, 3)); };
+  tbb::combinable<std::vector<Eigen::MatrixX3d>> acc(zero);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.planes(), 256), [&](const auto& r) {
+    std::vector<Eigen::MatrixX3d>& G = acc.local();
+    struct Part { std::size_t frame; Eigen::VectorXd wJ; double w; };
+    std::vector<Part> parts;  // the plane's frames, in the order met
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      const LocalPlane& plane = g.lp.planes[k];
+      parts.clear();
+      Eigen::VectorXd wJ_all = Eigen::VectorXd::Zero(n_all);
+      double w_all = 0.0;
+      for (std::uint32_t m = g.start[k]; m < g.start[k + 1]; ++m) {
+        const std::size_t f = g.frame[m];
+        const std::size_t l = p.lidar_of[f];
+        const Knots& kn = knots[f];
+        const Vec3 q = g.p_world[m].cast<double>();
+        const double w = huber_weight(plane.normal.dot(q - plane.centroid), config);
+        const Vec7 J = point_jacobian(plane.normal, kn, kn.nearest(g.dt_s[m] - kn.t0), s[l].T_ins_lidar.linear(),
+                                      g.p_lidar[m], q);
+        if (parts.empty() || parts.back().frame != f) {
+          auto it = std::find_if(parts.begin(), parts.end(), [&](const Part& x) { return x.frame == f; });
+          if (it == parts.end()) parts.push_back({f, Eigen::VectorXd::Zero(n_all), 0.0});
+          else std::rotate(it, it + 1, parts.end());  // the frame met again goes last
+        }
+        const Eigen::Index at = kRefineParams * static_cast<Eigen::Index>(l);
+        parts.back().wJ.segment(at, kRefineParams) += w * J;
+        parts.back().w += w;
+        wJ_all.segment(at, kRefineParams) += w * J;
+        w_all += w;
+      }
+      if (w_all <= 0.0) continue;
+      for (const Part& part : parts) G[part.frame] += (part.wJ - wJ_all * (part.w / w_all)) * plane.normal.transpose();
+    }
+  });
+  std::vector<Eigen::MatrixX3d> out = zero();
+  acc.combine_each([&](const std::vector<Eigen::MatrixX3d>& G) {
+    for (std::size_t f = 0; f < out.size(); ++f) out[f] += G[f];
+  });
+  return out;
+}
+
+// Covariance of the active parameters from an INS position error that is exponentially correlated
+// in time (sigmas per world axis, config.ins_*), through the linearised estimate
+// dx = -H^-1 sum_f G[f] e_f.
+Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eigen::MatrixX3d>& G,
+                                        const Eigen::MatrixXd& H_active, const std::vector<int>& params,
+                                        const RefineConfig& config) {
+  const int n_dof = static_cast<int>(params.size());
+  std::vector<Eigen::MatrixX3d> G_active(G.size(), Eigen::MatrixX3d(n_dof, 3));
+  for (std::size_t f = 0; f < G.size(); ++f)
+    for (int a = 0; a < n_dof; ++a) G_active[f].row(a) = G[f].row(params[a]);
+  const Vec3 var(config.ins_position_sigma_m * config.ins_position_sigma_m,
+                 config.ins_position_sigma_m * config.ins_position_sigma_m,
+                 config.ins_vertical_sigma_m * config.ins_vertical_sigma_m);
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_dof, n_dof);
+  const double tau = std::max(config.ins_error_correlation_s, 1e-6);
+  for (std::size_t f = 0; f < G.size(); ++f) {
+    const Eigen::MatrixXd GfC = G_active[f] * var.asDiagonal();
+    for (std::size_t h = 0; h < G.size(); ++h) {
+      const double rho = std::exp(-std::abs(p.frames[f].t_end_s - p.frames[h].t_end_s) / tau);
+      B.noalias() += rho * GfC * G_active[h].transpose();
+    }
+  }
+  const Eigen::MatrixXd Hinv = H_active.ldlt().solve(Eigen::MatrixXd::Identity(n_dof, n_dof));
+  return Hinv * B * Hinv;
 }
 
 std::vector<int> active_dofs(const RefineConfig& c, bool time_offset, bool tz) {
@@ -386,6 +476,7 @@ struct Search {
   std::string message;
   std::size_t planes = 0, shared_planes = 0;
   Eigen::MatrixXd information, covariance;  // 7N x 7N (continuous method)
+  Eigen::MatrixXd ins_covariance;           // 7N x 7N: the INS's correlated position error's share
   double sigma_m = 0.0;
   std::vector<double> residuals, rms_first_m, rms_last_m;  // per LiDAR
 };
@@ -571,6 +662,12 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
   out.covariance = Eigen::MatrixXd::Zero(n_all, n_all);
   for (int a = 0; a < n_dof; ++a)
     for (int b = 0; b < n_dof; ++b) out.covariance(params[a], params[b]) = cov(a, b);
+  if (!planes.empty() && H_active.size() > 0) {
+    const Eigen::MatrixXd ins = ins_position_covariance(p, frame_shift_sensitivity(p, s, config, planes), H_active, params, config);
+    out.ins_covariance = Eigen::MatrixXd::Zero(n_all, n_all);
+    for (int a = 0; a < n_dof; ++a)
+      for (int b = 0; b < n_dof; ++b) out.ins_covariance(params[a], params[b]) = ins(a, b);
+  }
   out.sigma_m = std::sqrt(sigma2);
   out.measure = "plane thickness RMS (m, " + fmt_m(config.plane_voxel_m) + " m planes)";
   return s;
@@ -589,6 +686,8 @@ void set_stddevs(const Search& search, const std::vector<bool>& offset_free, con
       } else {
         results[l].outcome.stddev(d) = sd;
         results[l].outcome.determined[static_cast<std::size_t>(d)] = true;
+        if (search.ins_covariance.size() > 0)
+          results[l].ins_position_stddev(d) = std::sqrt(std::max(0.0, search.ins_covariance(i, i)));
       }
     }
   }

@@ -114,6 +114,12 @@ struct RefineConfig {
                                     ///< their centroids and normals follow the points
   double converged_rot_deg = 1e-4;  ///< stop when an update is below both thresholds
   double converged_trans_m = 1e-5;
+  /// The INS's own position error, for the stddev it leaves in the estimate: an RTK-fixed
+  /// solution wanders by about its stated accuracy (NovAtel RTK: 1 cm horizontal, 1.5 cm vertical)
+  /// over tens of seconds. Modelled as exponentially correlated; set your INS's figures.
+  double ins_position_sigma_m = 0.01;     ///< per horizontal axis, m
+  double ins_vertical_sigma_m = 0.015;    ///< m
+  double ins_error_correlation_s = 30.0;  ///< correlation time, s
   double time_offset_scan_step_s = 0.005;  ///< coarse occupancy scan of the offset before
                                            ///< Gauss-Newton, seconds (0: no scan)
   double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
@@ -147,6 +153,9 @@ void visit_config(V& v, RefineConfig& c) {
   v("refit_iterations", c.refit_iterations, "continuous: iterations that re-find the planes before freezing them");
   v("converged_rot_deg", c.converged_rot_deg, "continuous: stop when the rotation update is below this, deg");
   v("converged_trans_m", c.converged_trans_m, "continuous: ...and the translation update below this, m");
+  v("ins_position_sigma_m", c.ins_position_sigma_m, "INS horizontal position error per axis, for the stddev it leaves, m");
+  v("ins_vertical_sigma_m", c.ins_vertical_sigma_m, "INS vertical position error, for the stddev it leaves, m");
+  v("ins_error_correlation_s", c.ins_error_correlation_s, "correlation time of the INS position error, s");
   v("time_offset_scan_step_s", c.time_offset_scan_step_s, "coarse time-offset scan step before Gauss-Newton (0: none), s");
   v("time_offset_scan_voxel_m", c.time_offset_scan_voxel_m, "voxel of that scan's occupancy count, m");
   v.section("joint", c.joint);
@@ -179,6 +188,10 @@ struct RefineResult {
   bool time_offset_estimated = false;
   bool converged = false;
   double time_offset_stddev_s = std::numeric_limits<double>::infinity();
+  /// The stddev an INS position error of RefineConfig::ins_* sizes and correlation leaves in the
+  /// estimate (0 where not estimated): what the INS gets wrong slowly is common to long stretches
+  /// of the drive, so the repeatability segments cannot show it.
+  Vec6 ins_position_stddev = Vec6::Zero();
   std::vector<RefineRound> rounds;
 };
 

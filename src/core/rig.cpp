@@ -751,8 +751,8 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
     rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
 
   finish_all(screened, groups, inputs, rough_groups, config, near, progress, beside, rig);
-  rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS heading error is common to all
-  for (RigLidar& lidar : rig.lidars) add_ins_heading_error(config, lidar.result);
+  rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS's errors are common to all
+  for (RigLidar& lidar : rig.lidars) add_ins_position_error(lidar.result), add_ins_heading_error(config, lidar.result);
   rig.wall_time_s = seconds_since(start);
   for (RigLidar& lidar : rig.lidars) lidar.result.wall_time_s = rig.wall_time_s;
   return rig;

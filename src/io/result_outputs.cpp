@@ -96,6 +96,7 @@ json refine_json(const RefineResult& f) {
           {"time_offset_s", f.time_offset_s},
           {"time_offset_stddev_s", number(f.time_offset_stddev_s)},
           {"time_offset_estimated", f.time_offset_estimated},
+          {"stddev_from_ins_position", dof_map(f.ins_position_stddev)},
           {"measure", f.measure},
           {"crispness_before", f.crispness_before},
           {"crispness_after", f.crispness_after},
