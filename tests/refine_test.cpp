@@ -134,10 +134,10 @@ TEST(Refine, InsPositionStddevFollowsTheErrorModel) {
   for (int i : {0, 1, 3, 4, 5}) ASSERT_GT(base.ins_position_stddev[i], 0.0) << i;
   EXPECT_EQ(base.ins_position_stddev[2], 0.0);  // tz is held
   RefineConfig twice = c;
-  twice.ins_position_sigma_m *= 2.0, twice.ins_vertical_sigma_m *= 2.0;
+  twice.ins_slow_error_horizontal_m *= 2.0, twice.ins_slow_error_vertical_m *= 2.0;
   const RefineResult doubled = refine(drive, drive.T_ins_lidar_true, 0.0, twice);
   RefineConfig common = c;
-  common.ins_error_correlation_s = 1e9;
+  common.ins_slow_error_correlation_s = 1e9;
   const RefineResult shared = refine(drive, drive.T_ins_lidar_true, 0.0, common);
   for (int i : {0, 1, 3, 4, 5}) {
     EXPECT_NEAR(doubled.ins_position_stddev[i], 2.0 * base.ins_position_stddev[i], 1e-9 * base.ins_position_stddev[i]) << i;

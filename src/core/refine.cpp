@@ -430,11 +430,11 @@ Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eige
   std::vector<Eigen::MatrixX3d> G_active(G.size(), Eigen::MatrixX3d(n_dof, 3));
   for (std::size_t f = 0; f < G.size(); ++f)
     for (int a = 0; a < n_dof; ++a) G_active[f].row(a) = G[f].row(params[a]);
-  const Vec3 var(config.ins_position_sigma_m * config.ins_position_sigma_m,
-                 config.ins_position_sigma_m * config.ins_position_sigma_m,
-                 config.ins_vertical_sigma_m * config.ins_vertical_sigma_m);
+  const Vec3 var(config.ins_slow_error_horizontal_m * config.ins_slow_error_horizontal_m,
+                 config.ins_slow_error_horizontal_m * config.ins_slow_error_horizontal_m,
+                 config.ins_slow_error_vertical_m * config.ins_slow_error_vertical_m);
   Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_dof, n_dof);
-  const double tau = std::max(config.ins_error_correlation_s, 1e-6);
+  const double tau = std::max(config.ins_slow_error_correlation_s, 1e-6);
   for (std::size_t f = 0; f < G.size(); ++f) {
     const Eigen::MatrixXd GfC = G_active[f] * var.asDiagonal();
     for (std::size_t h = 0; h < G.size(); ++h) {

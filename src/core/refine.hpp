@@ -114,12 +114,13 @@ struct RefineConfig {
                                     ///< their centroids and normals follow the points
   double converged_rot_deg = 1e-4;  ///< stop when an update is below both thresholds
   double converged_trans_m = 1e-5;
-  /// The INS's own position error, for the stddev it leaves in the estimate: an RTK-fixed
-  /// solution wanders by about its stated accuracy (NovAtel RTK: 1 cm horizontal, 1.5 cm vertical)
-  /// over tens of seconds. Modelled as exponentially correlated; set your INS's figures.
-  double ins_position_sigma_m = 0.01;     ///< per horizontal axis, m
-  double ins_vertical_sigma_m = 0.015;    ///< m
-  double ins_error_correlation_s = 30.0;  ///< correlation time, s
+  /// The INS's own slow position error, for the stddev it leaves in the estimate: an
+  /// RTK-fixed solution wanders by about its stated accuracy (NovAtel RTK: 1 cm horizontal, 1.5 cm
+  /// vertical) over tens of seconds. Modelled as exponentially correlated; set your INS's figures.
+  /// (Stage 3's z.ins_vertical_sigma_m is the INS's height error where the fiducials are seen.)
+  double ins_slow_error_horizontal_m = 0.01;   ///< per horizontal axis, m
+  double ins_slow_error_vertical_m = 0.015;    ///< m
+  double ins_slow_error_correlation_s = 30.0;  ///< correlation time, s
   double time_offset_scan_step_s = 0.005;  ///< coarse occupancy scan of the offset before
                                            ///< Gauss-Newton, seconds (0: no scan)
   double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
@@ -153,9 +154,9 @@ void visit_config(V& v, RefineConfig& c) {
   v("refit_iterations", c.refit_iterations, "continuous: iterations that re-find the planes before freezing them");
   v("converged_rot_deg", c.converged_rot_deg, "continuous: stop when the rotation update is below this, deg");
   v("converged_trans_m", c.converged_trans_m, "continuous: ...and the translation update below this, m");
-  v("ins_position_sigma_m", c.ins_position_sigma_m, "INS horizontal position error per axis, for the stddev it leaves, m");
-  v("ins_vertical_sigma_m", c.ins_vertical_sigma_m, "INS vertical position error, for the stddev it leaves, m");
-  v("ins_error_correlation_s", c.ins_error_correlation_s, "correlation time of the INS position error, s");
+  v("ins_slow_error_horizontal_m", c.ins_slow_error_horizontal_m, "INS slow position error per horizontal axis, for the stddev it leaves, m");
+  v("ins_slow_error_vertical_m", c.ins_slow_error_vertical_m, "INS slow vertical position error, for the stddev it leaves, m");
+  v("ins_slow_error_correlation_s", c.ins_slow_error_correlation_s, "correlation time of the INS slow position error, s");
   v("time_offset_scan_step_s", c.time_offset_scan_step_s, "coarse time-offset scan step before Gauss-Newton (0: none), s");
   v("time_offset_scan_voxel_m", c.time_offset_scan_voxel_m, "voxel of that scan's occupancy count, m");
   v.section("joint", c.joint);
