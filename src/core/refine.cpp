@@ -421,7 +421,7 @@ std::vector<Eigen::MatrixX3d> frame_shift_sensitivity(const Problem& p, const St
 }
 
 // Covariance of the active parameters from an INS position error that is exponentially correlated
-// in time (sigmas per world axis, config.ins_*), through the linearised estimate
+// in time (sigmas per world axis, config.ins_slow_error_*), through the linearised estimate
 // dx = -H^-1 sum_f G[f] e_f.
 Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eigen::MatrixX3d>& G,
                                         const Eigen::MatrixXd& H_active, const std::vector<int>& params,
