@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <initializer_list>
+#include <optional>
 #include <fmt/format.h>
 
 namespace insalign {
@@ -27,30 +28,41 @@ SegmentFrames slice(const FrameStore& store, const RepeatabilityInputs& in, doub
   return out;
 }
 
-SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
-                                const RoughConfig& rough_config, const RefineConfig& refine_config,
-                                const RepeatabilityConfig& config) {
-  SegmentResult out;
+// Where a segment's stage 2 starts: the full run's result, or stage 1 on the segment's groups
+// (the schedule's last rounds from the full result, the whole of it from the run's start, or the
+// last round when the segment has no stage 2). nullopt: stage 1 failed (`message` says why).
+std::optional<Iso3> segment_start(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
+                                  const RoughConfig& rough_config, int rough_rounds, std::string& message) {
+  if (rough_rounds == 0 && !frames.refine.empty()) return in.T_ins_lidar_full;
   RoughConfig own = rough_config;
   Iso3 start = in.T_ins_lidar_start;
-  const int rough_rounds = config.rough_rounds;
-  if (rough_rounds > 0 && static_cast<std::size_t>(rough_rounds) < own.rounds.size()) {
-    own.rounds.erase(own.rounds.begin(), own.rounds.end() - rough_rounds);
+  const std::size_t last = rough_rounds < 0 ? own.rounds.size() : static_cast<std::size_t>(std::max(rough_rounds, 1));
+  if (last < own.rounds.size()) {
+    own.rounds.erase(own.rounds.begin(), own.rounds.end() - static_cast<std::ptrdiff_t>(last));
     start = in.T_ins_lidar_full;
   }
   const RoughResult rough = calibrate_rough(store, frames.groups, start, in.time_offset_full_s, own);
   if (!rough.outcome.ok()) {
-    out.message = rough.outcome.message;
-    return out;
+    message = rough.outcome.message;
+    return std::nullopt;
   }
-  out.T_ins_lidar = rough.T_ins_lidar;
+  return rough.T_ins_lidar;
+}
+
+SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInputs& in, const SegmentFrames& frames,
+                                const RoughConfig& rough_config, const RefineConfig& refine_config,
+                                const RepeatabilityConfig& config) {
+  SegmentResult out;
+  const std::optional<Iso3> start = segment_start(store, in, frames, rough_config, config.rough_rounds, out.message);
+  if (!start) return out;
+  out.T_ins_lidar = *start;
   if (!frames.refine.empty()) {
     // The offset starts at the full run's: the coarse scan that finds it from afar (a third of a
     // segment's stage 2) would land there again.
     RefineConfig refine_own = refine_config;
     refine_own.time_offset_scan_step_s = 0.0;
     std::string warning;  // the segments' spread is the verdict here
-    const RefineResult refine = refine_checked(store, frames.refine, rough.T_ins_lidar, in.time_offset_full_s,
+    const RefineResult refine = refine_checked(store, frames.refine, *start, in.time_offset_full_s,
                                                in.max_speed_mps, refine_own, {}, warning);
     if (!refine.outcome.ok()) {
       out.message = refine.outcome.message;
