@@ -164,13 +164,14 @@ TEST_F(ReportTest, EveryReferencedImageExistsAndDecodesAndMapsGetThinner) {
 
 TEST_F(ReportTest, SectionsAreFoundOnTheRightSurfaces) {
   const auto map = synthetic_map(0.0, 5);
-  const auto wall = find_wall_section(map);
+  const MapSections sections = find_sections(map);
+  const auto& wall = sections.wall;
   ASSERT_TRUE(wall.has_value());
   // One of the two building walls, not the car roof or the ground.
   const bool on_x_wall = std::abs(wall->centre_m.x() - 12) < 0.1 && std::abs(wall->across_axis.x()) > 0.99;
   const bool on_y_wall = std::abs(wall->centre_m.y() + 14) < 0.1 && std::abs(wall->across_axis.y()) > 0.99;
   EXPECT_TRUE(on_x_wall || on_y_wall) << wall->centre_m.transpose();
-  const auto ground = find_ground_section(map);
+  const auto& ground = sections.ground;
   ASSERT_TRUE(ground.has_value());
   EXPECT_NEAR(ground->centre_m.z(), 0.0, 0.05);
 }

@@ -355,15 +355,17 @@ Image render_map_view(const std::vector<Vec3f>& p_world, const MapFrame& frame, 
 
 // ---- Cross-sections ---------------------------------------------------------------------------
 
-std::optional<Section> find_wall_section(const std::vector<Vec3f>& p_world) {
-  const CellShapes shapes(p_world, 40, 0.0);
+namespace {
+
+// Thin and extended vertical patch with the same wall continuing above it (a building, not a
+// car door or a low fence), the densest such pair.
+std::optional<Section> wall_section(const CellShapes& shapes) {
   auto vertical_plane = [](const CellShape& s) { return planar(s) && std::abs(s.normal.z()) < 0.15; };
   const CellShape* best = nullptr;
   double best_score = 0;
   for (const CellShape& s : shapes.all()) {
     if (!vertical_plane(s)) continue;
     const auto i = cell_index(s.mean);
-    // The same wall continues above: a building, not a car door or a low fence.
     const CellShape* above = shapes.find(cell_key(i[0], i[1], i[2] + 1));
     if (!above || !vertical_plane(*above) || std::abs(above->normal.dot(s.normal)) < 0.95) {
       continue;
@@ -387,20 +389,21 @@ std::optional<Section> find_wall_section(const std::vector<Vec3f>& p_world) {
   return sec;
 }
 
-std::optional<Section> find_ground_section(const std::vector<Vec3f>& p_world) {
+// The densest horizontal patch whose ground continues 2 m to either side along x (the section's
+// extent): road, not a car roof. Cells at two vertical phases, so a road on a cell boundary counts.
+std::optional<Section> ground_section(const CellShapes& unshifted, const std::vector<Vec3f>& p_world) {
   auto ground = [](const CellShape& s) { return planar(s) && std::abs(s.normal.z()) > 0.97; };
   std::optional<CellShape> best;
   double best_score = 0;
-  for (double z_shift_m : {0.0, 0.5 * kCellM}) {
-    const CellShapes shapes(p_world, 40, z_shift_m);
-    for (const CellShape& s : shapes.all()) {
+  const CellShapes shifted(p_world, 40, 0.5 * kCellM);
+  for (const auto& [shapes, z_shift_m] : {std::pair{&unshifted, 0.0}, std::pair{&shifted, 0.5 * kCellM}}) {
+    for (const CellShape& s : shapes->all()) {
       if (!ground(s)) continue;
       const auto i = cell_index(s.mean, z_shift_m);
-      // Ground continues 2 m to either side along x (the section's extent): road, not a car roof.
       double score = static_cast<double>(s.n);
       bool extended = true;
       for (int dx : {-2, -1, 1, 2}) {
-        const CellShape* next = shapes.find(cell_key(i[0] + dx, i[1], i[2]));
+        const CellShape* next = shapes->find(cell_key(i[0] + dx, i[1], i[2]));
         if (!next || !ground(*next)) {
           extended = false;
           break;
@@ -423,6 +426,13 @@ std::optional<Section> find_ground_section(const std::vector<Vec3f>& p_world) {
   sec.half_up_m = 0.3;
   sec.half_depth_m = 0.3;
   return sec;
+}
+
+}  // namespace
+
+MapSections find_sections(const std::vector<Vec3f>& p_world) {
+  const CellShapes shapes(p_world, 40, 0.0);  // the wall's cells and the ground's first phase
+  return {wall_section(shapes), ground_section(shapes, p_world)};
 }
 
 namespace {

@@ -73,12 +73,15 @@ struct Section {
   double half_across_m = 0.5, half_up_m = 1.0, half_depth_m = 0.15;
 };
 
-/// Picks a dense vertical planar patch with a planar patch above it (a wall, not a car door) in
-/// the map: across = the wall normal (so the wall shows as a vertical band whose width is its
-/// thickness), up = world z. nullopt if the map has none.
-std::optional<Section> find_wall_section(const std::vector<Vec3f>& p_world);
-/// Picks a dense horizontal planar patch (road): across = horizontal, up = world z.
-std::optional<Section> find_ground_section(const std::vector<Vec3f>& p_world);
+/// The map's two sections, each nullopt if the map has none:
+/// - wall: a dense vertical planar patch with a planar patch above it (a wall, not a car door):
+///   across = the wall normal (the wall shows as a vertical band whose width is its
+///   thickness), up = world z;
+/// - ground: a dense horizontal planar patch (road): across = horizontal, up = world z.
+struct MapSections {
+  std::optional<Section> wall, ground;
+};
+MapSections find_sections(const std::vector<Vec3f>& p_world);
 
 /// Robust thickness of the section's points about their median across-coordinate
 /// (1.4826 * MAD, metres) and how many points the box holds.

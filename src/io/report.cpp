@@ -130,8 +130,9 @@ ReportImages draw_report_images(std::size_t maps, const std::function<MapSnapsho
   {
     const MapSnapshot final_map = map(maps - 1);
     frame = frame_map(final_map.p_world);
-    images.wall = find_wall_section(final_map.p_world);
-    images.ground = find_ground_section(final_map.p_world);
+    const MapSections sections = find_sections(final_map.p_world);
+    images.wall = sections.wall;
+    images.ground = sections.ground;
     draw_map(final_map, maps - 1, frame, images, pngs[maps - 1]);
   }
   for (std::size_t i = 0; i + 1 < maps; ++i) draw_map(map(i), i, frame, images, pngs[i]);

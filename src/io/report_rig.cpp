@@ -142,7 +142,8 @@ std::string map_images(const std::filesystem::path& out_dir, const std::vector<R
        "final map where at least two LiDARs have points. With the right extrinsics every LiDAR's surface lies on the others'.</p>\n"
        "<div class=\"grid\">\n";
   const std::vector<Vec3f> shared = overlap_points(maps.back().p_world);
-  for (const auto& section : {find_wall_section(shared), find_ground_section(shared)}) {
+  const MapSections sections = find_sections(shared);
+  for (const auto& section : {sections.wall, sections.ground}) {
     if (!section) continue;
     for (const RigReportMaps& m : maps) {
       const std::string rel = "report/rig_" + m.label + "_" + section->kind + ".png";
