@@ -150,4 +150,23 @@ TEST(RoughSchedule, MultiGroupRoundsStartAtTheFirstRoundOfSeveralGroups) {
   EXPECT_EQ(multi_group_rounds(local).size(), 2u);
 }
 
+// Stage 2 following leaves out the last round only, and only when the config says so.
+TEST(RoughSchedule, Stage2FollowingSkipsTheLastRound) {
+  RoughConfig config;
+  const std::vector<RoughRound>& all = config.rounds;
+  const std::vector<RoughRound> near = multi_group_rounds(all);
+  EXPECT_EQ(pipeline_rounds(config, false, false).size(), all.size());
+  EXPECT_EQ(pipeline_rounds(config, true, false).size(), near.size());
+  const std::vector<RoughRound> before_stage2 = pipeline_rounds(config, false, true);
+  ASSERT_EQ(before_stage2.size(), all.size() - 1);
+  EXPECT_EQ(before_stage2.back().root_voxel_m, all[all.size() - 2].root_voxel_m);
+  EXPECT_EQ(pipeline_rounds(config, true, true).size(), near.size() - 1);
+  config.rounds = {all.back()};
+  EXPECT_EQ(pipeline_rounds(config, true, true).size(), 1u);  // never none
+  config.rounds = all;
+  config.stage2_skips_last_round = false;
+  config.near_start_skips_single_group_rounds = false;
+  EXPECT_EQ(pipeline_rounds(config, true, true).size(), all.size());
+}
+
 }  // namespace insalign

@@ -131,7 +131,7 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
   r.time_offset_s = r.init.time_offset_s;
   FrameGroups groups = rough_frame_groups(store, config.rough, r.time_offset_s);
   RoughConfig rough = config.rough;
-  if (rough.near_start_skips_single_group_rounds && start_is_near(r.init)) rough.rounds = multi_group_rounds(rough.rounds);
+  rough.rounds = pipeline_rounds(rough, start_is_near(r.init), config.run_refine);
   r.rough = calibrate_rough(store, groups, r.init.T_ins_lidar, r.time_offset_s, rough,
                             [&](double f) { progress("rough", f); });
   if (!stage1_may_fail) stop_if_undetermined(r.rough.outcome);

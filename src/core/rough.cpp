@@ -32,6 +32,13 @@ std::vector<RoughRound> multi_group_rounds(const std::vector<RoughRound>& rounds
   return first == rounds.end() ? rounds : std::vector<RoughRound>(first, rounds.end());
 }
 
+std::vector<RoughRound> pipeline_rounds(const RoughConfig& config, bool near_start, bool stage2_follows) {
+  std::vector<RoughRound> rounds = config.rounds;
+  if (config.near_start_skips_single_group_rounds && near_start) rounds = multi_group_rounds(rounds);
+  if (config.stage2_skips_last_round && stage2_follows && rounds.size() > 1) rounds.pop_back();
+  return rounds;
+}
+
 namespace {
 
 using Mat4 = Eigen::Matrix4d;
