@@ -8,6 +8,8 @@
 #include <limits>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
+#include <utility>
 
 #include "core/errors.hpp"
 #include "io/atomic_file.hpp"
@@ -116,26 +118,25 @@ struct Message {
   std::vector<std::uint8_t> bytes;
 };
 
+// The INS topics of a message kind, added to the bag: their ids (the second 0 when there is one).
+std::pair<std::uint32_t, std::uint32_t> add_ins_topics(BagWriter& w, InsMessage kind, MessageEncoding enc) {
+  const auto add = [&](const char* topic, const char* type) { return w.add_topic(make_topic(topic, type, enc)); };
+  switch (kind) {
+    case InsMessage::kInspva:
+      return {add("/novatel/oem7/inspva", "novatel_oem7_msgs/INSPVA"), add("/novatel/oem7/inspvax", "novatel_oem7_msgs/INSPVAX")};
+    case InsMessage::kNavSatFixImu: return {add("/gps/fix", "sensor_msgs/NavSatFix"), add("/imu/data", "sensor_msgs/Imu")};
+    case InsMessage::kOdometry: return {add("/odom", "nav_msgs/Odometry"), 0};
+    case InsMessage::kTf: return {add("/tf", "tf2_msgs/TFMessage"), add("/tf_static", "tf2_msgs/TFMessage")};
+  }
+  return {0, 0};
+}
+
 // Writes the INS topics; geodetic messages through `enu` (tangent at the first pose).
 class InsWriter {
  public:
   InsWriter(BagWriter& w, InsMessage kind, MessageEncoding enc, const io::LocalEnu& enu, const Vec3& p_first)
       : kind_(kind), enc_(enc), enu_(enu), p_first_(p_first) {
-    switch (kind) {
-      case InsMessage::kInspva:
-        a_ = w.add_topic(make_topic("/novatel/oem7/inspva", "novatel_oem7_msgs/INSPVA", enc));
-        b_ = w.add_topic(make_topic("/novatel/oem7/inspvax", "novatel_oem7_msgs/INSPVAX", enc));
-        break;
-      case InsMessage::kNavSatFixImu:
-        a_ = w.add_topic(make_topic("/gps/fix", "sensor_msgs/NavSatFix", enc));
-        b_ = w.add_topic(make_topic("/imu/data", "sensor_msgs/Imu", enc));
-        break;
-      case InsMessage::kOdometry: a_ = w.add_topic(make_topic("/odom", "nav_msgs/Odometry", enc)); break;
-      case InsMessage::kTf:
-        a_ = w.add_topic(make_topic("/tf", "tf2_msgs/TFMessage", enc));
-        b_ = w.add_topic(make_topic("/tf_static", "tf2_msgs/TFMessage", enc));
-        break;
-    }
+    std::tie(a_, b_) = add_ins_topics(w, kind, enc);
   }
 
   std::vector<Message> messages(const InsSample& s, std::uint32_t seq) const {
