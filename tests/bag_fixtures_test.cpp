@@ -15,10 +15,10 @@
 #include <vector>
 
 #include "core/errors.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/messages.hpp"
-#include "io/bag/pointcloud2.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/messages.hpp"
+#include "recording/pointcloud2.hpp"
 
 namespace insalign::io::bag {
 namespace {

@@ -25,14 +25,14 @@
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag/bag_writer.hpp"
-#include "io/bag_topics.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/formats.hpp"
-#include "io/input_info.hpp"
-#include "io/input_source.hpp"
-#include "io/read_file.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/bag_writer.hpp"
+#include "recording/bag_topics.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/formats.hpp"
+#include "input/input_info.hpp"
+#include "input/input_source.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign {
 namespace {

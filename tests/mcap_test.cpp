@@ -1,6 +1,6 @@
 // MCAP reader and writer: the real rosbag2 recordings, round trips in every compression, files
 // cut off mid-recording, corruption of every kind the reader must name.
-#include "io/bag/mcap.hpp"
+#include "recording/mcap.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
