@@ -3,10 +3,12 @@
 #   bash scripts/gen-config-doc.sh [INSALIGN]           rewrite the page (INSALIGN: default build/src/insalign)
 #   bash scripts/gen-config-doc.sh --check [INSALIGN]   exit 1 when the page differs from what it would write (a ctest)
 set -euo pipefail
-cd "$(dirname "$0")/.."
 check=0
 if [[ ${1:-} == --check ]]; then check=1; shift; fi
-exe=${1:-build/src/insalign}
+# INSALIGN relative to where the script is called from; the default relative to the source tree.
+if [[ -n ${1:-} ]]; then exe=$(realpath "$1"); fi
+cd "$(dirname "$0")/.."
+exe=${exe:-build/src/insalign}
 page=docs/configuration.md
 
 render() {
