@@ -55,6 +55,9 @@ std::string kubernetes_job_yaml(const Manifest& m, const fs::path& results_in, c
   y += "  template:\n    metadata:\n      labels:\n        app: insalign-fleet\n    spec:\n      restartPolicy: Never\n";
   y += "      containers:\n      - name: task\n        image: " + quoted(c.image) + "\n";
   y += "        command: [" + command + "]\n";
+  // Set by the Job controller for Indexed Jobs; spelled out so the task's source of its row is visible.
+  y += "        env:\n        - name: JOB_COMPLETION_INDEX\n          valueFrom:\n            fieldRef:\n"
+       "              fieldPath: metadata.annotations['batch.kubernetes.io/job-completion-index']\n";
   y += fmt::format("        resources:\n          requests:\n            cpu: \"{}\"\n            memory: {}Mi\n", c.cpus, memory_mb);
   y += fmt::format("          limits:\n            memory: {}Mi\n", memory_mb);
   y += "        volumeMounts:\n        - name: fleet-data\n          mountPath: " + quoted(mount.string()) + "\n";

@@ -161,8 +161,9 @@ std::map<std::size_t, std::string> wait_slurm(const Manifest& m, const std::stri
     std::this_thread::sleep_for(std::chrono::duration<double>(c.poll_s));
   }
   std::map<std::size_t, std::string> states = final_states(job_id);
+  fmt::print("job {} ended; Slurm's final state per row:\n", job_id);
   for (const auto& [i, state] : states)
-    if (i < m.rows.size() && last.count(i)) fmt::print("{}: {}\n", m.rows[i].id(), state);
+    if (i < m.rows.size()) fmt::print("{}: {}\n", m.rows[i].id(), state);
   return states;
 }
 
