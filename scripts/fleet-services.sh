@@ -15,6 +15,7 @@ fleet_start_munge() {
                                      chown munge:munge /etc/munge/munge.key; chmod 400 /etc/munge/munge.key; }
   if ! pgrep -u munge -x munged >/dev/null; then
     runuser -u munge -- /usr/sbin/munged || return 1
+    fleet_started_munge=1  # stopped again by fleet_services_stop; a munged already running is left alone
   fi
   for _ in $(seq 50); do munge -n </dev/null >/dev/null 2>&1 && return 0; sleep 0.1; done
   return 1
@@ -65,6 +66,8 @@ fleet_start_slurm() {
   local d=$fleet_services_dir/slurm
   command -v slurmctld >/dev/null || { echo "fleet services: slurm-wlm is not installed"; return 1; }
   fleet_start_munge || { echo "fleet services: munged did not start"; return 1; }
+  fleet_kill_pidfile "$d/slurmd.pid"
+  fleet_kill_pidfile "$d/slurmctld.pid"
   rm -rf "$d"
   fleet_write_slurm_conf "$d"
   export SLURM_CONF=$d/slurm.conf
@@ -83,12 +86,22 @@ fleet_start_slurm() {
   return 1
 }
 
-fleet_pg_bin() { ls -d /usr/lib/postgresql/*/bin 2>/dev/null | sort -V | tail -1; }
+fleet_pg_bin() { { ls -d /usr/lib/postgresql/*/bin 2>/dev/null || true; } | sort -V | tail -1; }
+
+# A server left running by an earlier run (same folder) is stopped first.
+fleet_kill_pidfile() {
+  local f=$1 pid
+  [[ -f $f ]] || return 0
+  pid=$(cat "$f")
+  kill "$pid" 2>/dev/null || true
+  for _ in $(seq 50); do kill -0 "$pid" 2>/dev/null || return 0; sleep 0.1; done
+}
 
 fleet_start_postgres() {
   local d=$fleet_services_dir/postgres bin port=15439
   bin=$(fleet_pg_bin)
   [[ -n $bin ]] || { echo "fleet services: postgresql is not installed"; return 1; }
+  [[ -f $d/data/postmaster.pid ]] && runuser -u postgres -- "$bin/pg_ctl" -D "$d/data" -m fast -w stop >/dev/null 2>&1
   rm -rf "$d"
   mkdir -p "$d"
   chown postgres:postgres "$d"
@@ -107,8 +120,9 @@ fleet_services_start() {
 
 fleet_services_stop() {
   local d=$fleet_services_dir bin
-  if [[ -f $d/slurm/slurmd.pid ]]; then kill "$(cat "$d/slurm/slurmd.pid")" 2>/dev/null || true; fi
-  if [[ -f $d/slurm/slurmctld.pid ]]; then kill "$(cat "$d/slurm/slurmctld.pid")" 2>/dev/null || true; fi
+  fleet_kill_pidfile "$d/slurm/slurmd.pid"
+  fleet_kill_pidfile "$d/slurm/slurmctld.pid"
+  if [[ ${fleet_started_munge:-0} == 1 && -f /run/munge/munged.pid ]]; then kill "$(cat /run/munge/munged.pid)" 2>/dev/null || true; fi
   bin=$(fleet_pg_bin)
   if [[ -n $bin && -f $d/postgres/data/postmaster.pid ]]; then
     runuser -u postgres -- "$bin/pg_ctl" -D "$d/postgres/data" -m fast -w stop >/dev/null 2>&1 || true

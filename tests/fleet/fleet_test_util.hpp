@@ -1,7 +1,10 @@
 // Small simulated drives and manifests for the fleet's tests (built once per test process).
 #pragma once
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include <cstdlib>
 #include <filesystem>
@@ -18,10 +21,13 @@ namespace fs = std::filesystem;
 /// given true mount "x y z roll pitch yaw".
 inline void simulate_drive(const fs::path& dir, int seed, const std::string& mount) {
   if (fs::exists(dir / "ground_truth.json")) return;
-  const auto [rc, out] = run_command(std::string(INSALIGN_EXE) + " simulate --out " + dir.string() + " --seed " +
+  const fs::path tmp = dir.string() + ".tmp-" + std::to_string(::getpid());
+  fs::remove_all(tmp);
+  const auto [rc, out] = run_command(std::string(INSALIGN_EXE) + " simulate --out " + tmp.string() + " --seed " +
                                      std::to_string(seed) + " --loops 1 --frames 120 --lidar vlp16 --azimuth-step-deg 1 --extrinsic \"" +
                                      mount + "\" --quiet");
   ASSERT_EQ(rc, 0) << out;
+  fs::rename(tmp, dir);
 }
 
 /// The drives every fleet test shares, in one folder: car A's and car B's mounts, car B after a
@@ -30,20 +36,29 @@ struct FleetDrives {
   fs::path dir;
 };
 
+// Shared by the test processes ctest runs at once: the first one simulates, under a lock.
 inline const FleetDrives& fleet_drives() {
   static FleetDrives d = [] {
-    FleetDrives f{fs::temp_directory_path() / ("insalign_fleet_drives_" + std::to_string(::getpid()))};
+    FleetDrives f{fs::temp_directory_path() / "insalign_fleet_drives_v1"};
     fs::create_directories(f.dir);
+    const int lock = ::open((f.dir / ".lock").c_str(), O_RDWR | O_CREAT, 0644);
+    ::flock(lock, LOCK_EX);
     simulate_drive(f.dir / "a", 11, "0.5 0.1 1.6 1 2 90");
     simulate_drive(f.dir / "b", 12, "-0.3 0.2 1.8 -1 0.5 180");
     simulate_drive(f.dir / "b-knocked", 13, "-0.3 0.2 1.8 0.5 0.5 183");
-    fs::remove_all(f.dir / "corrupt");
-    fs::create_directories(f.dir / "corrupt");
-    fs::copy(f.dir / "a", f.dir / "corrupt", fs::copy_options::recursive);
-    std::ifstream in(f.dir / "a" / "poses.txt");
-    std::ofstream out(f.dir / "corrupt" / "poses.txt");
-    std::string line;
-    for (int n = 1; std::getline(in, line); ++n) out << (n == 20 ? std::string("0.1 0.2 not-a-number") : line) << "\n";
+    if (!fs::exists(f.dir / "corrupt" / "poses.txt")) {
+      fs::remove_all(f.dir / "corrupt");
+      fs::remove_all(f.dir / "corrupt.tmp");
+      fs::copy(f.dir / "a", f.dir / "corrupt.tmp", fs::copy_options::recursive);
+      std::ifstream in(f.dir / "a" / "poses.txt");
+      std::ofstream out(f.dir / "corrupt.tmp" / "poses.txt");
+      std::string line;
+      for (int n = 1; std::getline(in, line); ++n) out << (n == 20 ? std::string("0.1 0.2 not-a-number") : line) << "\n";
+      out.close();
+      fs::rename(f.dir / "corrupt.tmp", f.dir / "corrupt");
+    }
+    ::flock(lock, LOCK_UN);
+    ::close(lock);
     return f;
   }();
   return d;
