@@ -65,7 +65,8 @@ std::map<std::size_t, std::string> final_states(const std::string& job_id) {
       const std::size_t us = line.find('_'), bar = line.find('|');
       if (us == std::string::npos || bar == std::string::npos || us > bar) continue;
       const std::string state = line.substr(bar + 1, line.find(' ', bar) - bar - 1);  // "CANCELLED by 0"
-      out[std::stoul(line.substr(us + 1, bar - us - 1))] = state;
+      const std::string index = line.substr(us + 1, bar - us - 1);
+      if (!index.empty() && index.find_first_not_of("0123456789") == std::string::npos) out[std::stoul(index)] = state;
     }
     if (!out.empty()) return out;
   }
@@ -76,7 +77,7 @@ std::map<std::size_t, std::string> final_states(const std::string& job_id) {
     const std::size_t a = line.find("ArrayTaskId="), s = line.find("JobState=");
     if (a == std::string::npos || s == std::string::npos) continue;
     const std::string index = line.substr(a + 12, line.find(' ', a) - a - 12);
-    if (index.find_first_not_of("0123456789") != std::string::npos) continue;  // "3-7%2": still pending
+    if (index.empty() || index.find_first_not_of("0123456789") != std::string::npos) continue;  // "3-7%2": still pending
     out[std::stoul(index)] = line.substr(s + 9, line.find(' ', s) - s - 9);
   }
   return out;
