@@ -6,7 +6,7 @@
 
 #include "fleet/dof_plot.hpp"
 #include "fleet/status.hpp"
-#include "io/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 
 namespace insalign::fleet {
 namespace {

@@ -6,7 +6,7 @@
 
 #include "fleet/engine_local.hpp"
 #include "fleet/engine_slurm.hpp"
-#include "io/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 
 namespace insalign::fleet {
 namespace {

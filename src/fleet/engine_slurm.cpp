@@ -11,7 +11,7 @@
 #include "fleet/engine_local.hpp"
 #include "fleet/process.hpp"
 #include "fleet/rows.hpp"
-#include "io/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 
 namespace insalign::fleet {
 namespace {

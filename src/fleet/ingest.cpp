@@ -4,7 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/errors.hpp"
-#include "io/read_file.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::fleet {
 namespace {

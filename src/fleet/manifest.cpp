@@ -5,7 +5,7 @@
 #include <map>
 
 #include "core/errors.hpp"
-#include "io/read_file.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::fleet {
 namespace {

@@ -5,8 +5,8 @@
 #include <nlohmann/json.hpp>
 
 #include "core/errors.hpp"
-#include "io/atomic_file.hpp"
-#include "io/read_file.hpp"
+#include "files/atomic_file.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::fleet {
 namespace {

@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "fleet/process.hpp"
-#include "io/atomic_file.hpp"
+#include "files/atomic_file.hpp"
 
 namespace insalign::fleet {
 namespace {

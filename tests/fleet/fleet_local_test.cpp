@@ -11,7 +11,7 @@
 #include "fleet/process.hpp"
 #include "fleet/status.hpp"
 #include "fleet_test_util.hpp"
-#include "io/extrinsic_json.hpp"
+#include "files/extrinsic_json.hpp"
 
 namespace insalign::testing {
 namespace {

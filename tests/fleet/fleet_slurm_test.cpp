@@ -9,7 +9,7 @@
 
 #include "fleet/status.hpp"
 #include "fleet_test_util.hpp"
-#include "io/read_file.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::testing {
 namespace {
