@@ -11,7 +11,10 @@
   const status = document.getElementById("viewer-status");
   const errors = [];
   const say = (k, v) => status && status.setAttribute("data-" + k, String(v));
-  window.addEventListener("error", (e) => { errors.push(String(e.message)); say("errors", errors.join(" | ")); });
+  const record = (m) => { errors.push(String(m)); say("errors", errors.join(" | ")); };
+  window.addEventListener("error", (e) => record(e.message));
+  const consoleError = console.error.bind(console);
+  console.error = (...a) => { record(a.join(" ")); consoleError(...a); };
   const t0 = performance.now();
   const canvas = root.querySelector("canvas");
   const info = root.querySelector(".viewer-info");
