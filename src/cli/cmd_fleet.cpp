@@ -93,6 +93,8 @@ int run_ingest(const FleetOptions& o) {
 
 int run_report(const FleetOptions& o) {
   const fs::path out = fs::absolute(o.out);
+  if (o.db.empty() && !fs::exists(out / "fleet.sqlite"))  // not created empty by asking
+    throw InputError((out / "fleet.sqlite").string(), "", "no fleet history (run fleet ingest --results " + out.string() + " first, or give --db)");
   std::unique_ptr<fleet::SqlConnection> db = fleet::open_database(o.db, out);
   if (fleet::schema_version(*db) == 0) throw InputError(o.db.empty() ? (out / "fleet.sqlite").string() : o.db, "", "no fleet history (run fleet ingest first)");
   fleet::migrate(*db);
