@@ -36,7 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace bag;
 
-const fs::path kFixtures = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kFixtures = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 constexpr double kT0 = 1700000000.0;
 constexpr double kSpeed = 5.0;  // m/s
 constexpr double kPi = 3.14159265358979323846;

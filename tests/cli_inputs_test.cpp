@@ -158,7 +158,7 @@ TEST(CliInputs, KittiRawDriveCalibratesWithinTheBounds) {
 // Through the library: a fixture written by python3-rosbag with two drivers, named in what is read.
 TEST(CliInputs, EachLidarOfARecordingSaysItsTimeConvention) {
   io::InputSpec spec;
-  spec.bag = fs::path(__FILE__).parent_path() / "data" / "bags" / "ros1_ouster_livox_tf_lz4.bag";
+  spec.bag = fs::path(INSALIGN_TEST_DATA_DIR) / "bags" / "ros1_ouster_livox_tf_lz4.bag";
   spec.lidar_topics = {"/ouster/points", "/livox/lidar"};
   const io::LoadedInput input = io::load_input(spec);
   ASSERT_EQ(input.reports.size(), 2u);

@@ -389,7 +389,7 @@ TEST(PointCloud2, DecodesA120kPointCloudInWellUnder5Ms) {
 
 // ------------------------------------------------------------ clouds written by other writers
 
-const fs::path kFixtures = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kFixtures = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 
 struct SweepFacts {
   std::size_t points;
