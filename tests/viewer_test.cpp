@@ -224,6 +224,14 @@ TEST(ViewerBrowser, ReportFromFileDrawsSwitchesAndToggles) {
   EXPECT_GT(differing(wall, after), 0.05) << "jumping to the wall section changed nothing";
   if (const char* keep = std::getenv("INSALIGN_VIEWER_SHOTS")) std::filesystem::copy(dir / "after.png", keep, std::filesystem::copy_options::overwrite_existing);
 
+  // A click on the wall (the centre of the view after the jump) names a point and its frame.
+  const std::string picked = status_after_load(page, "full&section=0&pick=450,300", dir, &log);
+  EXPECT_NE(picked.find("data-picked="), std::string::npos) << picked;
+  const std::size_t info = log.find("viewer-info\">");
+  ASSERT_NE(info, std::string::npos);
+  const std::string line = log.substr(info, log.find('<', info) - info);
+  EXPECT_NE(line.find("m (world) · frame frame"), std::string::npos) << line;
+
   // Without WebGL: one line pointing at the PNG projections instead.
   const std::string fallback = status_after_load(page, "nowebgl", dir, &log);
   EXPECT_NE(fallback.find("data-state=\"fallback\""), std::string::npos) << fallback;

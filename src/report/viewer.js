@@ -310,7 +310,7 @@
     say("picked", best);
   };
 
-  // Initial state from the address (#extrinsic=0&colour=2&leftout=0&full&section=1): for links and the browser test.
+  // Initial state from the address (#extrinsic=0&colour=2&leftout=0&full&section=1&pick=x,y): for links and the browser test.
   const h = new URLSearchParams(location.hash.slice(1));
   if (h.has("extrinsic")) state.ext = Math.min(Number(h.get("extrinsic")), M.extrinsics.length - 1);
   if (h.has("colour")) state.mode = Number(h.get("colour")) % 3;
@@ -319,6 +319,10 @@
   if (h.has("section")) jump(Number(h.get("section")));
   update();
   draw();  // once now, so that a screenshot right after load shows the map
+  if (h.has("pick")) {  // a click at (x, y) canvas pixels, as a person would
+    const [x, y] = h.get("pick").split(",").map(Number), r = canvas.getBoundingClientRect();
+    pick({ clientX: r.left + x, clientY: r.top + y });
+  }
   say("load-ms", Math.round(performance.now() - t0));
   say("state", errors.length ? "error" : "ok");
 })();
