@@ -8,6 +8,7 @@
 
 #include "core/dof_status.hpp"
 #include "core/pipeline.hpp"
+#include "io/result_outputs.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 
@@ -161,6 +162,35 @@ TEST(DofStatus, TzIsTheInitsWhenNothingDeterminesItEvenIfItsRotationIsDropped) {
             std::string::npos) << r.advice.front();
   for (int i = 0; i < 6; ++i) EXPECT_EQ(r.determined[static_cast<std::size_t>(i)], std::isfinite(r.stddev[i])) << i;
   for (const std::string& w : r.warnings) EXPECT_EQ(w.find("built-in"), std::string::npos) << w;
+}
+
+// What the user reads first: the terminal summary opens with one `attention:` line per advice
+// sentence, before the numbers; the later warnings are not repeated.
+TEST(DofStatus, SummaryOpensWithTheAdvice) {
+  CalibrationResult r;
+  DofEvidence e;
+  e.observed.fill(true);
+  e.observed[2] = false;
+  e.stddev << 0.015, 0.002, std::numeric_limits<double>::infinity(), 1e-4, 1e-4, 3e-4;
+  e.tz_source = TzSource::kInit;
+  e.tz_m = 2.078;
+  const DofStatusResult s = decide_dof_status(e);
+  r.advice = s.advice;
+  r.determined = s.determined();
+  r.stddev = s.stddev();
+  r.tz_source = s.tz_source;
+  r.warnings = r.advice;
+  r.warnings.push_back("segments of the drive disagree more than expected (x 2 cm)");
+  const std::string text = io::summary_text(r, io::RunInfo{});
+  ASSERT_EQ(r.advice.size(), 2u);  // tz, then x weak
+  const std::size_t first = text.find("attention: tz is not determined: it is the --init file's value (2.078 m)");
+  const std::size_t second = text.find("attention: tx is weakly determined (+- 1.5 cm): drive more turns");
+  EXPECT_NE(first, std::string::npos) << text;
+  EXPECT_LT(first, second);
+  EXPECT_LT(second, text.find("T_ins_lidar"));
+  EXPECT_NE(text.find("tz from the --init file"), std::string::npos) << text;
+  EXPECT_NE(text.find("warning: segments of the drive disagree"), std::string::npos);
+  EXPECT_EQ(text.find("warning: tz is not determined"), std::string::npos) << "said twice";
 }
 
 }  // namespace
