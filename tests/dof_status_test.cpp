@@ -8,7 +8,7 @@
 
 #include "core/dof_status.hpp"
 #include "core/pipeline.hpp"
-#include "io/result_outputs.hpp"
+#include "report/result_outputs.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 

@@ -1,5 +1,5 @@
 // insalign calibrate with several LiDARs: one FrameStore per LiDAR, the rig pipeline
-// (core/rig.hpp), the rig outputs (io/rig_outputs.hpp) and the terminal summary.
+// (core/rig.hpp), the rig outputs (report/rig_outputs.hpp) and the terminal summary.
 #include "cli/calibrate_rig.hpp"
 
 #include <fmt/core.h>
@@ -8,8 +8,8 @@
 #include "cli/commands.hpp"
 #include "core/errors.hpp"
 #include "core/rig.hpp"
-#include "io/atomic_file.hpp"
-#include "io/rig_outputs.hpp"
+#include "files/atomic_file.hpp"
+#include "report/rig_outputs.hpp"
 
 namespace insalign::cli {
 namespace {

@@ -7,7 +7,7 @@
 
 #include "cli/progress.hpp"
 #include "core/pipeline.hpp"
-#include "io/input_source.hpp"
+#include "input/input_source.hpp"
 
 namespace insalign::cli {
 

@@ -11,13 +11,13 @@
 #include "cli/commands.hpp"
 #include "cli/input_options.hpp"
 #include "cli/progress.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/pipeline.hpp"
-#include "io/atomic_file.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/formats.hpp"
-#include "io/input_info.hpp"
-#include "io/result_outputs.hpp"
+#include "files/atomic_file.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/formats.hpp"
+#include "input/input_info.hpp"
+#include "report/result_outputs.hpp"
 
 namespace insalign::cli {
 namespace {

@@ -9,9 +9,9 @@
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
 #include "core/stitch.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/pcd.hpp"
-#include "io/ply.hpp"
+#include "files/extrinsic_json.hpp"
+#include "pointcloud/pcd.hpp"
+#include "pointcloud/ply.hpp"
 
 namespace insalign::cli {
 namespace {
