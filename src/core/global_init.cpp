@@ -66,7 +66,7 @@ std::map<std::size_t, InitFrame> load_frames(const FrameStore& store, const Driv
 // Height of the INS origin above the ground: from the nearest fiducials (ground points) where
 // the drive passes within 30 m of one, else the configured guess. `how` says which.
 double ins_height_above_ground(const std::vector<InitFrame*>& frames, const std::vector<Fiducial>& fiducials,
-                               double guess_m, std::string& how) {
+                               double guess_m, std::optional<double> given_m, std::string& how, TzSource& source) {
   double sum = 0.0;
   int count = 0;
   for (const InitFrame* f : frames) {
@@ -76,11 +76,18 @@ double ins_height_above_ground(const std::vector<InitFrame*>& frames, const std:
       if (!nearest || (fid.p_world - p_ins).head<2>().norm() < (nearest->p_world - p_ins).head<2>().norm()) nearest = &fid;
     if (nearest && (nearest->p_world - p_ins).head<2>().norm() < 30.0) sum += p_ins.z() - nearest->p_world.z(), ++count;
   }
+  if (count == 0 && given_m) {
+    how = fmt::format("INS {:.2f} m above the ground (--ins-height-m; stage 3 measures z)", *given_m);
+    source = TzSource::kInsHeightGiven;
+    return *given_m;
+  }
   if (count == 0) {
-    how = fmt::format("INS assumed {:.2f} m above the ground (no fiducials; stage 3 fixes z)", guess_m);
+    how = fmt::format("INS assumed {:.2f} m above the ground (the built-in guess: no fiducials, no --ins-height-m)", guess_m);
+    source = TzSource::kGuess;
     return guess_m;
   }
   how = fmt::format("INS {:.2f} m above the ground (nearest fiducials)", sum / count);
+  source = TzSource::kFiducials;
   return sum / count;
 }
 
@@ -159,10 +166,13 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
     why << ": same basin, init confirmed.";
   } else if (ratio > config.override_score_ratio) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
+    // The data's rotation and lever arm, the init's tz: the drive does not show tz here, and the
+    // user's measured height beats the guess (seen: 0.79 m off from a guess, the init 0.21 m).
+    result.T_ins_lidar.translation().z() = T_init->translation().z();
     result.start_candidate = cand[best].label;
     result.source = InitSource::kDataOverridesInit;
     why << ": the data clearly prefers " << cand[best].label
-        << fmt::format(" (init scores {:.3f} times worse, threshold {:.3f}); continuing from the data.", ratio,
+        << fmt::format(" (init scores {:.3f} times worse, threshold {:.3f}); continuing from the data (with the init's z).", ratio,
                config.override_score_ratio);
   } else {
     why << fmt::format(": the data does not clearly prefer another basin (score ratio init/data {:.3f} <= {:.3f}); init kept.",
@@ -195,7 +205,7 @@ bool start_is_near(const GlobalInitResult& init) {
 }
 
 GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::optional<Iso3>& T_ins_lidar_init,
-                                      const GlobalInitConfig& config) {
+                                      const GlobalInitConfig& config, std::optional<double> ins_height_m) {
   const auto t0 = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
   if (T_ins_lidar_init && config.trust_init) {
@@ -227,8 +237,13 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   result.lidar_height_m = level.lidar_height_m;
   result.ground_normal_spread_deg = level.normal_spread_deg;
   std::string z_how;
-  const double ins_height_m = ins_height_above_ground(all, store.data().fiducials, config.ins_height_guess_m, z_how);
-  const double tz_insl_m = level.lidar_height_m - ins_height_m;
+  TzSource data_tz_source = TzSource::kGuess;
+  const double height_m =
+      ins_height_above_ground(all, store.data().fiducials, config.ins_height_guess_m, ins_height_m, z_how, data_tz_source);
+  const double tz_insl_m = level.lidar_height_m - height_m;
+  if (T_ins_lidar_init && data_tz_source != TzSource::kFiducials)
+    z_how = fmt::format("the data's candidates place the INS {:.2f} m above the ground; the start keeps the init's tz "
+                        "({:.3f} m)", height_m, T_ins_lidar_init->translation().z());
 
   // 2. Coarse yaw on the straight stretch (lever arm irrelevant there).
   std::vector<const InitFrame*> coarse_frames;
@@ -285,6 +300,7 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   for (const InitCandidate& c : cand) why << " " << c.label << " " << c.score;
   why << ".";
   decide(cand, T_ins_lidar_init, config, result, why);
+  result.tz_source = T_ins_lidar_init ? TzSource::kInit : data_tz_source;
   result.explanation = why.str();
   result.outcome.status = StageStatus::kOk;
   result.outcome.wall_time_s = elapsed();

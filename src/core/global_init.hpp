@@ -19,6 +19,7 @@
 
 #include "core/coarse_time_offset.hpp"
 #include "core/coarse_yaw.hpp"
+#include "core/dof_status.hpp"
 #include "core/frame_store.hpp"
 #include "core/ground_level.hpp"
 #include "core/hand_eye.hpp"
@@ -87,6 +88,10 @@ struct GlobalInitResult {
   double time_offset_s = 0.0;
   CoarseTimeOffset time_offset;
   InitSource source = InitSource::kData;
+  /// Where the start's tz came from: the init whenever one was given (a tape measure beats any
+  /// guess, also when the data overrides the init's rotation), else the fiducials' ground height,
+  /// --ins-height-m, or the built-in guess (ins_height_guess_m).
+  TzSource tz_source = TzSource::kInit;
   std::string start_candidate = "init";  ///< the candidate the start is (its label: "data", "data-yaw+90", ...)
   std::string explanation;              ///< why: the steps and the scores
   std::vector<InitCandidate> candidates;
@@ -109,8 +114,10 @@ bool start_is_near(const GlobalInitResult& init);
 
 /// Never throws for degenerate data: without an init, outcome kUndetermined says why the data
 /// cannot give a start; with an init the data cannot check, the init is returned (source kInit)
-/// and the explanation says why it was not checked.
+/// and the explanation says why it was not checked. ins_height_m (--ins-height-m): the INS height
+/// above the ground the data's tz uses instead of the guess when there are no fiducials.
 GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::optional<Iso3>& T_ins_lidar_init,
-                                      const GlobalInitConfig& config = {});
+                                      const GlobalInitConfig& config = {},
+                                      std::optional<double> ins_height_m = std::nullopt);
 
 }  // namespace insalign

@@ -63,9 +63,19 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
 
 // The formal stddev treats every point as independent and comes out 10-50x below the
 // benchmark's errors; the segments' disagreement is an honest floor (core/repeatability).
+// tz from stage 1 (not re-estimated per segment) is widened like roll and pitch, whose ground
+// excitation it shares; stage 3's tz is absolute and keeps its own stddev.
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
+  const double tz_sd = r.stddev[2];
+  const double tz_inflation = ground_inflation(r.stddev, rep);
   r.stddev = stddev_with_repeatability(r.stddev, rep);
+  r.stddev[2] = r.z.determined() || !r.rough.tz_estimated ? tz_sd : tz_sd * tz_inflation;
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);
+}
+
+// tz estimated by stage 1 alone: at least the INS's height error over the drive can hide in it.
+double data_tz_stddev_m(const CalibrationResult& r, const ZConfig& z) {
+  return std::max(r.stddev[2], z.ins_vertical_sigma_m);
 }
 
 // tz not fixed by stage 3: stage 2 held it where stage 1 left it, and absorbed its error in x and
@@ -73,18 +83,29 @@ void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
 // estimated tz, else the assumed one).
 void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t>& frames, const PipelineConfig& config,
                           CalibrationResult& r) {
-  const double sd = r.rough.tz_estimated && std::isfinite(r.rough.outcome.stddev[2])
-                        ? std::max(r.rough.outcome.stddev[2], 0.01)
-                        : config.z.undetermined_tz_sigma_m;
+  const bool from_data = r.rough.tz_estimated && std::isfinite(r.stddev[2]);
+  const double sd = from_data ? data_tz_stddev_m(r, config.z) : config.z.undetermined_tz_sigma_m;
+  if (from_data) r.stddev[2] = sd;
   r.tz_coupling = tz_coupling(store, frames, r.T_ins_lidar, r.time_offset_s, r.refine->time_offset_estimated,
                               config.refine, sd);
   if (!r.tz_coupling.ok) return;
   for (int i : {0, 1}) r.stddev[i] = std::hypot(r.stddev[i], r.tz_coupling.stddev_added_m[i]);
   for (int i : {0, 1, 2}) r.stddev[3 + i] = std::hypot(r.stddev[3 + i], r.tz_coupling.rpy_stddev_added_rad[i]);
-  r.warnings.push_back(fmt::format(
-      "tz is not determined (+- {:.2f} m assumed): x and y move {:.1f}, {:.1f} mm per 0.1 m of tz on this drive, and their "
-      "stddev includes that (fiducials or --ins-height-m fix tz)",
-      sd, 1e2 * std::abs(r.tz_coupling.dxy_dtz.x()), 1e2 * std::abs(r.tz_coupling.dxy_dtz.y())));
+}
+
+// The INS looks wrong: stretches left out, segments that disagree, a correction the drive needed.
+void add_ins_advice(const CalibrationResult& r, std::vector<std::string>& advice) {
+  double left_out_s = 0.0;
+  for (const TimeSpan& span : r.excluded) left_out_s += span.end_s - span.begin_s;
+  if (left_out_s > 0.0)
+    advice.push_back(fmt::format("The INS looks wrong for {:.1f} s of the drive ({} stretches, left out): check the INS's "
+                                 "RTK status (fixed, not float) and its antenna.", left_out_s, r.excluded.size()));
+  if (!r.repeatability.warning.empty() && r.repeatability.segments_ok >= 2)
+    advice.push_back("Parts of the drive disagree on the extrinsic more than expected: check the INS's RTK status, "
+                     "moving objects and the mount; the stddev includes the disagreement.");
+  if (r.trajectory.applied)
+    advice.push_back("The INS trajectory drifted and was corrected with the LiDAR: check the INS's RTK status; a drive "
+                     "with RTK fixed throughout gives a tighter result.");
 }
 
 }  // namespace
@@ -119,7 +140,7 @@ FrameGroups run_start(const FrameStore& store, const PipelineConfig& config, con
 
   // 1. Start: from the data, or the given initial guess checked against the data.
   progress("init", 0.0);
-  r.init = initialise_extrinsic(store, data.T_ins_lidar_init, config.init);
+  r.init = initialise_extrinsic(store, data.T_ins_lidar_init, config.init, config.ins_height_m);
   // Its frames are not the stages' (the checks sample the stages' frames): their memory back.
   store.forget();
   progress("init", 1.0);
@@ -151,9 +172,11 @@ void run_finish(const FrameStore& placed, const FrameGroups& groups, const std::
   r.z = correct_z(placed, r.T_ins_lidar, r.time_offset_s, config.ins_height_m, z_config, near);
   progress("z", 1.0);
   r.T_ins_lidar = r.z.T_ins_lidar;
-  r.determined[2] = r.z.determined() || r.rough.tz_estimated;
+  r.determined[2] = r.z.determined() || r.rough.tz_estimated;  // evidence: finish_dof_status decides
   if (r.z.determined()) r.stddev[2] = r.z.tz_stddev_m();
-  if (!r.determined[2]) r.warnings.push_back(r.z.outcome.message);
+  if (!r.determined[2]) r.stddev[2] = std::numeric_limits<double>::infinity();
+  // Fiducials or a height given but unusable: why (finish_dof_status says where tz came from).
+  if (r.z.outcome.status == StageStatus::kUndetermined) r.warnings.push_back(r.z.outcome.message);
 
   // 5. Repeatability: the segments start from the same start, with stage 3's tz (a wrong tz
   // biases the horizontal lever arm, see step 3). `beside` reads r meanwhile: the study's result
@@ -191,6 +214,32 @@ void add_ins_position_error(CalibrationResult& r) {
     if (std::isfinite(r.stddev[i])) r.stddev[i] = std::max(r.stddev[i], r.refine->ins_position_stddev[i]);
 }
 
+TzSource final_tz_source(const CalibrationResult& r) {
+  if (r.z.determined()) return r.z.method == ZMethod::kFiducials ? TzSource::kFiducials : TzSource::kInsHeight;
+  if (r.rough.tz_estimated) return TzSource::kData;
+  return r.init.tz_source;
+}
+
+void finish_dof_status(const PipelineConfig& config, CalibrationResult& r, std::optional<TzSource> tz_source) {
+  DofEvidence e;
+  e.observed = r.determined;  // the stages' verdicts (stage 1, stage 3 or stage 1's tz; a rig's joint ones)
+  e.stddev = r.stddev;
+  e.tz_source = tz_source.value_or(final_tz_source(r));
+  e.tz_m = r.T_ins_lidar.translation().z();
+  if (r.tz_coupling.ok) {
+    e.tz_assumed_sigma_m = r.tz_coupling.tz_sigma_m;
+    e.dx_per_tz = r.tz_coupling.dxy_dtz.x();
+    e.dy_per_tz = r.tz_coupling.dxy_dtz.y();
+  }
+  const DofStatusResult status = decide_dof_status(e, config.status);
+  r.determined = status.determined();
+  r.stddev = status.stddev();
+  r.tz_source = status.tz_source;
+  r.advice = status.advice;
+  add_ins_advice(r, r.advice);
+  r.warnings.insert(r.warnings.begin(), r.advice.begin(), r.advice.end());
+}
+
 CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
                                   const PipelineProgress& progress_in, const BesideRepeatability& beside) {
   const auto start = std::chrono::steady_clock::now();
@@ -221,6 +270,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
   run_finish(placed, groups, refine_frames, config, progress, r, beside, &near);  // steps 4-5
   add_ins_position_error(r);
   add_ins_heading_error(config, r);
+  finish_dof_status(config, r);
   r.frames_decoded = store.frames_decoded();
   r.wall_time_s = seconds_since(start);
   return r;

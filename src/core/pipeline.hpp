@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/dataset.hpp"
+#include "core/dof_status.hpp"
 #include "core/frame_store.hpp"
 #include "core/frames.hpp"
 #include "core/global_init.hpp"
@@ -38,6 +39,7 @@ struct PipelineConfig {
   MovingPointsConfig moving;              ///< points on moving things left out of every stage
   ZConfig z;
   RepeatabilityConfig repeatability;
+  DofStatusConfig status;                 ///< the final per-DOF verdict (core/dof_status)
   bool run_refine = true;                  ///< stage 2 (false: stop after stage 1)
   std::optional<double> ins_height_m;      ///< INS origin height above the ground, for stage 3
   /// The INS's heading error over the drive (1 sigma), deg: a heading error is an extrinsic yaw
@@ -63,6 +65,7 @@ void visit_config(V& v, PipelineConfig& c) {
   v.section("moving", c.moving);
   v.section("z", c.z);
   v.section("repeatability", c.repeatability);
+  v.section("status", c.status);
 }
 
 struct CalibrationResult {
@@ -84,12 +87,17 @@ struct CalibrationResult {
   Iso3 T_ins_lidar = Iso3::Identity();  ///< final estimate
   double time_offset_s = 0.0;           ///< t_ins = t_lidar + time_offset_s
   double time_offset_stddev_s = std::numeric_limits<double>::infinity();
-  /// Final verdict per DOF [tx ty tz roll pitch yaw]: tz determined only by stage 3 (or by
-  /// stage 1 when the drive's roll and pitch excite it).
+  /// Final verdict per DOF [tx ty tz roll pitch yaw], decided in one place (finish_dof_status,
+  /// core/dof_status): determined[i] exactly when stddev[i] is finite. tz is determined by stage 3
+  /// (fiducials, --ins-height-m), or by stage 1 when the drive's roll and pitch excite it tightly.
   std::array<bool, 6> determined{};
   /// m, rad (+inf: not determined): the larger of the stages' formal value and, with the
   /// repeatability study, the segments' spread scaled to the whole drive.
   Vec6 stddev = Vec6::Constant(std::numeric_limits<double>::infinity());
+  TzSource tz_source = TzSource::kGuess;  ///< where the final tz came from
+  /// What the user should know first, one sentence each with what to do: DOFs not determined or
+  /// weak, an INS that looks wrong. Also in `warnings` (after them).
+  std::vector<std::string> advice;
   double ins_heading_sigma_rad = 0.0;  ///< the part of stddev[5] that is the INS's heading error
   std::vector<std::string> warnings;
   std::size_t frames_decoded = 0;       ///< sweeps decoded by the whole run (each at most once)
@@ -123,6 +131,12 @@ void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);
 /// Each stddev at least stage 2's share of the INS's slow position error (RefineResult::
 /// ins_position_stddev), which the repeatability segments cannot show.
 void add_ins_position_error(CalibrationResult& r);
+/// The last step of every run (one LiDAR or each of a rig's): `determined`, `stddev`, `tz_source`
+/// and `advice` from the stages' evidence (decide_dof_status), and the INS's own advice.
+/// tz_source: where tz came from when the caller knows better (a rig LiDAR's tz from its anchor).
+void finish_dof_status(const PipelineConfig& config, CalibrationResult& r, std::optional<TzSource> tz_source = {});
+/// Stage 3's reference, else stage 1's estimate, else the start's (the init, --ins-height-m, a guess).
+TzSource final_tz_source(const CalibrationResult& r);
 /// Work that needs the final extrinsic but none of its stddevs (the report's maps), run beside the
 /// repeatability study, which changes only stddevs and warnings: given the result before the study.
 using BesideRepeatability = std::function<void(const CalibrationResult& r)>;

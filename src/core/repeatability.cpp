@@ -149,6 +149,13 @@ Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& re
   return out;
 }
 
+double ground_inflation(const Vec6& formal, const RepeatabilityResult& repeatability) {
+  const Vec6& segments = repeatability.stddev_whole_drive;
+  const double bias = kGeomeanOfRangeBias[std::clamp(repeatability.segments_ok, 0, 5)];
+  const double drive = pooled_inflation(formal, segments, {0, 1, 3, 4, 5});
+  return std::max(1.0, std::max(drive, pooled_inflation(formal, segments, {3, 4})) / bias);
+}
+
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
                                       const RoughConfig& rough, const RefineConfig& refine,
                                       const RepeatabilityConfig& config) {

@@ -85,6 +85,10 @@ double whole_drive_stddev_per_spread(int segments);
 /// DOFs without a finite segment value keep their formal stddev.
 Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability);
 
+/// The factor stddev_with_repeatability widens roll and pitch by (at least 1): for a DOF the
+/// segments do not estimate but the same ground excitation determines (stage 1's tz).
+double ground_inflation(const Vec6& formal, const RepeatabilityResult& repeatability);
+
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,
                                       const RoughConfig& rough, const RefineConfig& refine,
                                       const RepeatabilityConfig& config);

@@ -498,6 +498,19 @@ std::size_t anchor_of(const std::vector<std::size_t>& members, const RigResult& 
   return anchor;
 }
 
+// Each LiDAR's final status; a LiDAR whose tz is the anchor's relative height has the anchor's source.
+void finish_rig_dof_status(const PipelineConfig& config, RigResult& rig) {
+  std::vector<TzSource> own(rig.lidars.size());
+  for (std::size_t l = 0; l < rig.lidars.size(); ++l) own[l] = final_tz_source(rig.lidars[l].result);
+  for (std::size_t l = 0; l < rig.lidars.size(); ++l) {
+    RigLidar& lidar = rig.lidars[l];
+    std::optional<TzSource> source;
+    for (std::size_t a = 0; a < rig.lidars.size(); ++a)
+      if (lidar.tz_from_anchor && rig.lidars[a].name == lidar.tz_anchor) source = own[a];
+    finish_dof_status(config, lidar.result, source);
+  }
+}
+
 // Their tz stddev: the anchor's (absolute) and their own relative part (after the repeatability
 // study widened it).
 void shared_tz_stddevs(const std::vector<std::size_t>& members, RigResult& rig) {
@@ -747,12 +760,17 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
     rig.joint_wall_time_s = seconds_since(t_joint);
   }
   if (const std::string why = undetermined_message(rig); !why.empty()) throw UnobservableError(why);
-  if (config.trajectory.mode != TrajectoryCorrectionMode::kOff)
+  const TrajectoryCorrectionMode mode = config.trajectory.mode;
+  const bool asked = mode == TrajectoryCorrectionMode::kAuto || mode == TrajectoryCorrectionMode::kAlways ||
+                     (mode == TrajectoryCorrectionMode::kIfDrifting &&
+                      stated_drift_rms_m(screened[0]) >= config.trajectory.drifting_min_stated_growth_m);
+  if (asked)
     rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
 
   finish_all(screened, groups, inputs, rough_groups, config, near, progress, beside, rig);
   rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS's errors are common to all
   for (RigLidar& lidar : rig.lidars) add_ins_position_error(lidar.result), add_ins_heading_error(config, lidar.result);
+  finish_rig_dof_status(config, rig);
   rig.wall_time_s = seconds_since(start);
   for (RigLidar& lidar : rig.lidars) lidar.result.wall_time_s = rig.wall_time_s;
   return rig;

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <limits>
 
 #include "core/deskew.hpp"
 #include "core/occupancy.hpp"
@@ -455,6 +456,19 @@ void decide(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s) {
 
 }  // namespace
 
+double stated_drift_rms_m(const FrameStore& store) {
+  double best = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
+  std::size_t n = 0;
+  for (const InsQuality& q : store.data().ins_quality) {
+    if (!std::isfinite(q.horizontal_stddev_m) || store.excluded(q.t_s, q.t_s)) continue;
+    best = std::min(best, q.horizontal_stddev_m);
+    sum_sq += q.horizontal_stddev_m * q.horizontal_stddev_m;
+    ++n;
+  }
+  if (n == 0) return 0.0;
+  return std::sqrt(std::max(0.0, sum_sq / static_cast<double>(n) - best * best));
+}
+
 Vec3 TrajectoryCorrection::position_at(double t) const {
   if (position_m.empty()) return Vec3::Zero();
   if (position_m.size() == 1) return position_m.front();
@@ -488,6 +502,16 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
   if (config.mode == TrajectoryCorrectionMode::kOff) {
     s.outcome.message = "INS trajectory correction off";
     return s;
+  }
+  if (config.mode == TrajectoryCorrectionMode::kIfDrifting) {
+    const double growth_m = stated_drift_rms_m(store);
+    if (growth_m < config.drifting_min_stated_growth_m) {
+      s.outcome.message = fmt::format("INS trajectory correction not needed: the INS states no drift (its stated "
+                                      "horizontal stddev grows {:.1f} mm above its best; if-drifting needs {:.0f} mm)",
+                                      1e3 * growth_m, 1e3 * config.drifting_min_stated_growth_m);
+      s.decision = s.outcome.message;
+      return s;
+    }
   }
   RefineConfig picking = refine;
   picking.max_frames = config.max_frames;

@@ -35,17 +35,27 @@ namespace insalign {
 
 enum class TrajectoryCorrectionMode {
   kOff,     ///< the INS poses are taken as exact
+  /// Estimated only when the INS states that it drifts (its stated horizontal stddev grows along
+  /// the drive, outside the stretches left out: stated_drift_rms_m), then decided as kAuto. An
+  /// RTK-fixed drive costs nothing and keeps off's answer; float episodes, outages and wrong fixes
+  /// are left out by the screen and do not count as drift.
+  kIfDrifting,
   kAuto,    ///< estimated always, applied only when the drive's evidence asks for it (see decide)
   kAlways,  ///< estimated and applied
 };
-inline constexpr std::array<std::pair<TrajectoryCorrectionMode, std::string_view>, 3> kTrajectoryCorrectionModeNames{
+inline constexpr std::array<std::pair<TrajectoryCorrectionMode, std::string_view>, 4> kTrajectoryCorrectionModeNames{
     {{TrajectoryCorrectionMode::kOff, "off"},
+     {TrajectoryCorrectionMode::kIfDrifting, "if-drifting"},
      {TrajectoryCorrectionMode::kAuto, "auto"},
      {TrajectoryCorrectionMode::kAlways, "always"}}};
 constexpr auto enum_names(TrajectoryCorrectionMode) { return std::span(kTrajectoryCorrectionModeNames); }
 
 struct TrajectoryCorrectionConfig {
-  TrajectoryCorrectionMode mode = TrajectoryCorrectionMode::kOff;
+  TrajectoryCorrectionMode mode = TrajectoryCorrectionMode::kIfDrifting;
+  /// if-drifting: the INS counts as drifting when its stated horizontal stddev rises above its
+  /// best on the drive by at least this (RMS over the samples not left out, m). A walk of
+  /// 5 mm/sqrt(s) over 108 s states ~37 mm; an RTK-fixed INS states a constant ~1 cm (0).
+  double drifting_min_stated_growth_m = 0.01;
   double knot_spacing_s = 1.0;            ///< knots of the correction, INS seconds
   /// Assumed random walk of the INS position per axis where the INS states nothing better; the
   /// stated standard deviations (Dataset::ins_quality) add their change between knots.
@@ -70,7 +80,11 @@ struct TrajectoryCorrectionConfig {
 
 template <class V>
 void visit_config(V& v, TrajectoryCorrectionConfig& c) {
-  v("mode", c.mode, "off, auto (applied when the drive's own evidence asks for it) or always");
+  v("mode", c.mode,
+    "off, if-drifting (estimated when the INS states it drifts, then as auto), auto (estimated, applied when the drive's "
+    "own evidence asks for it) or always");
+  v("drifting_min_stated_growth_m", c.drifting_min_stated_growth_m,
+    "if-drifting: the INS drifts when its stated horizontal stddev grows at least this above its best, m");
   v("knot_spacing_s", c.knot_spacing_s, "knots of the INS trajectory correction, s");
   v("drift_m_per_sqrt_s", c.drift_m_per_sqrt_s, "assumed INS position random walk per axis (prior), m/sqrt(s)");
   v("estimate_heading", c.estimate_heading, "also correct the INS heading (its drive mean stays in yaw)");
@@ -105,6 +119,11 @@ struct TrajectoryCorrection {
   Vec3 position_at(double t_s) const;   ///< interpolated (constant beyond the knots)
   double heading_at(double t_s) const;
 };
+
+/// How far the INS's stated horizontal stddev grows above its best value on the drive: RMS over
+/// the samples outside the store's left-out spans of sqrt(stated^2 - best^2), m; 0 when the INS
+/// states nothing.
+double stated_drift_rms_m(const FrameStore& store);
 
 /// The INS trajectory with the correction applied at every pose.
 PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& correction);

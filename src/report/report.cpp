@@ -183,6 +183,14 @@ std::string html_result(const ReportData& data) {
   return h;
 }
 
+// Before everything else: one sentence per thing to act on.
+std::string html_advice(const ReportData& data) {
+  if (data.advice.empty()) return "";
+  std::string h = "<div class=\"warn\"><strong>Before you use this result</strong><ul>\n";
+  for (const auto& a : data.advice) h += "<li>" + esc(a) + "</li>\n";
+  return h + "</ul></div>\n";
+}
+
 std::string html_warnings(const ReportData& data) {
   if (data.warnings.empty()) return "";
   std::string h;
@@ -467,7 +475,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
   h += fmt::format("<div class=\"meta\">written {:%Y-%m-%d %H:%M:%S} UTC{}</div>\n", now,
                    data.command_line.empty() ? "" : " &middot; <code>" + esc(data.command_line) + "</code>");
   // Result first: the numbers to put on the car and whether to believe them.
-  h += html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
+  h += html_advice(data) + html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
        html_viewer(images) + html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
        html_repeatability(data) + html_trajectory_correction(data) + html_output_files(data);
   h += "</body></html>\n";

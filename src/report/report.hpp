@@ -99,6 +99,7 @@ struct ReportData {
   std::optional<ObservabilityReport> observability;
   std::optional<RepeatabilityReport> repeatability;
   std::optional<TrajectoryCorrectionReport> trajectory_correction;
+  std::vector<std::string> advice;    ///< shown first: what to do (a DOF weak or not determined, the INS)
   std::vector<std::string> warnings;
   /// What the stages left out: INS spans (when, who found them, why) and moving points.
   std::vector<std::string> left_out;

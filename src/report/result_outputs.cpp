@@ -251,7 +251,8 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   out["stddev"]["time_offset_s"] = number(r.time_offset_stddev_s);
   out["stddev_yaw_includes_ins_heading_deg"] = r.ins_heading_sigma_rad * kDegPerRad;  // ins_heading_sigma_deg
   out["determined"] = determined_map(r.determined);
-  out["tz_source"] = std::string(enum_name(r.z.method));
+  out["tz_source"] = std::string(enum_name(r.tz_source));  // stage 3's method is stages.z.method
+  out["advice"] = r.advice;
   out["warnings"] = r.warnings;
   out["wall_time_s"] = r.wall_time_s;
   out["frames_decoded"] = r.frames_decoded;
@@ -372,7 +373,9 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
         rc.warn_rot_deg * kRadPerDeg, rc.warn_rot_deg * kRadPerDeg;
     report.repeatability = rep;
   }
-  report.warnings = r.warnings;
+  report.advice = r.advice;
+  report.warnings.assign(r.warnings.begin() + static_cast<std::ptrdiff_t>(std::min(r.advice.size(), r.warnings.size())),
+                         r.warnings.end());
   const double t0 = data_start_s(store);
   if (r.trajectory.outcome.ok()) {
     TrajectoryCorrectionReport tc{r.trajectory.applied, r.trajectory.decision, {}, r.trajectory.position_m};
@@ -395,13 +398,18 @@ ReportData report_data(const CalibrationResult& r, const FrameStore& store, cons
 }
 
 std::string summary_text(const CalibrationResult& r, const RunInfo& run) {
-  std::string s = "\nT_ins_lidar (LiDAR to INS)\n";
+  // What to do first: a DOF not determined or weak, an INS that looks wrong (one line each).
+  std::string s;
+  if (!r.advice.empty()) s += "\n";
+  for (const std::string& a : r.advice) s += "attention: " + a + "\n";
+  s += "\nT_ins_lidar (LiDAR to INS)\n";
   s += fmt::format("  {:<6} {:>12} {:>12} {:>12}\n", "dof", "value", "stddev", "determined");
   const char* names[6] = {"x m", "y m", "z m", "roll", "pitch", "yaw"};
   for (int i = 0; i < 6; ++i) {
     s += fmt::format("  {:<6} {:>12} {:>12} {:>12}\n", names[i], dof_value(i, r.T_ins_lidar), dof_stddev(i, r.stddev),
                      r.determined[i] ? "yes" : "NO");
   }
+  s += fmt::format("  tz from {}\n", tz_source_phrase(r.tz_source));
   s += fmt::format("  time offset {:.4f} s\n\nstages\n", r.time_offset_s);
   const auto stage = [&](const char* name, double seconds, const std::string& note) {
     s += fmt::format("  {:<14} {:>7.2f} s  {}\n", name, seconds, note);
@@ -421,7 +429,7 @@ std::string summary_text(const CalibrationResult& r, const RunInfo& run) {
   s += fmt::format("  total          {:>7.2f} s  (loading included; {} sweeps decoded), peak memory {:.0f} MB\n",
                    r.wall_time_s, r.frames_decoded, run.peak_memory_mb);
   s += left_out_text(r);
-  for (const std::string& w : r.warnings) s += "warning: " + w + "\n";
+  for (std::size_t k = r.advice.size(); k < r.warnings.size(); ++k) s += "warning: " + r.warnings[k] + "\n";
   return s;
 }
 

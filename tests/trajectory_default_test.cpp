@@ -1,0 +1,76 @@
+// The default trajectory correction (trajectory.mode if-drifting) decides from the drive's own
+// evidence: the INS's stated accuracy growing along the drive outside the stretches the screen
+// leaves out. RTK-fixed, float-episode, wrong-fix and outage drives do not engage it; a
+// drifting INS does.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/ins_screen.hpp"
+#include "core/pipeline.hpp"
+#include "sim/simulate.hpp"
+#include "sim/world_dataset.hpp"
+
+namespace insalign {
+namespace {
+
+// The stated drift the default sees on a short seeded figure-8 with the given INS errors.
+double stated_drift_of(const sim::SimConfig& sc) {
+  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+  const Dataset data = sim::world_dataset(world);
+  const PipelineConfig config;
+  const FrameStore store = make_frame_store(data, config);
+  InsScreenResult screen;
+  const FrameStore screened = leave_out_status_spans(store, config.ins_screen, screen);
+  return stated_drift_rms_m(screened);
+}
+
+sim::SimConfig short_drive(std::uint64_t seed) {
+  sim::SimConfig sc;
+  sc.seed = seed;
+  sc.duration_s = 60.0;
+  sc.azimuth_step_deg = 2.0;
+  return sc;
+}
+
+TEST(TrajectoryDefault, IsIfDriftingAndEngagesOnlyOnADriftingIns) {
+  const TrajectoryCorrectionConfig defaults;
+  ASSERT_EQ(defaults.mode, TrajectoryCorrectionMode::kIfDrifting);
+  for (std::uint64_t seed : {1u, 2u}) {
+    sim::SimConfig fixed = short_drive(seed);
+    EXPECT_LT(stated_drift_of(fixed), 0.2 * defaults.drifting_min_stated_growth_m) << "RTK fixed, seed " << seed;
+    sim::SimConfig events = short_drive(seed);
+    events.duration_s = 120.0;
+    events.figure8_loops = 5;
+    events.ins_error.float_episodes = 2;
+    events.ins_error.wrong_fixes = 1;
+    events.ins_error.outages = 1;
+    EXPECT_LT(stated_drift_of(events), defaults.drifting_min_stated_growth_m) << "float, wrong fix, outage, seed " << seed;
+    sim::SimConfig drift = short_drive(seed);
+    drift.ins_error.model = sim::InsErrorModel::kDrift;  // 5 mm/sqrt(s): ~27 mm RMS growth over 60 s
+    EXPECT_GT(stated_drift_of(drift), 2.0 * defaults.drifting_min_stated_growth_m) << "drift, seed " << seed;
+  }
+}
+
+// On the RTK-fixed drive the default costs nothing and answers exactly as `off`; the result says
+// why the correction was not estimated.
+TEST(TrajectoryDefault, RtkFixedDriveGivesOffsAnswer) {
+  sim::SimConfig sc = short_drive(3);
+  sc.duration_s = 40.0;
+  sc.azimuth_step_deg = 1.0;
+  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+  const Dataset data = sim::world_dataset(world);
+  PipelineConfig config;
+  config.repeatability.segments = 0;
+  const CalibrationResult by_default = run_calibration(make_frame_store(data, config), config);
+  config.trajectory.mode = TrajectoryCorrectionMode::kOff;
+  const CalibrationResult off = run_calibration(make_frame_store(data, config), config);
+  EXPECT_FALSE(by_default.trajectory.applied);
+  EXPECT_NE(by_default.trajectory.outcome.message.find("the INS states no drift"), std::string::npos)
+      << by_default.trajectory.outcome.message;
+  EXPECT_TRUE(by_default.T_ins_lidar.isApprox(off.T_ins_lidar, 1e-12));
+  EXPECT_LT(extrinsic_error(by_default.T_ins_lidar, world->T_ins_lidar_true).angle_deg, 0.05);
+}
+
+}  // namespace
+}  // namespace insalign
