@@ -42,7 +42,8 @@ bool word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c
 std::vector<std::string> options_in(const std::string& text) {
   std::vector<std::string> out;
   for (std::size_t i = text.find("--"); i != std::string::npos; i = text.find("--", i + 2)) {
-    if (i > 0 && (word_char(text[i - 1]) || text[i - 1] == '-')) continue;
+    // Not inside a word or a longer dash run, and not a value: `--sbatch-option=--qos=low`.
+    if (i > 0 && (word_char(text[i - 1]) || text[i - 1] == '-' || text[i - 1] == '=')) continue;
     if (i + 2 >= text.size() || !std::islower(static_cast<unsigned char>(text[i + 2]))) continue;
     std::size_t e = i + 2;
     while (e < text.size() && option_char(text[e])) ++e;

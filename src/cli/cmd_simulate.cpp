@@ -35,6 +35,8 @@ struct SimulateOptions {
   std::string extrinsic;
   std::string pcd_encoding = "binary_compressed";
   std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
+  std::string bag_compression = "default", bag_chunking = "insalign";  ///< sim_bag_export.hpp
+  std::size_t bag_chunk_kib = 768;
   std::string poses_format = "opencalib";  ///< sim_ins_export.hpp
   std::string novatel_record = "inspvaxa";
   double ins_clock_offset_s = 0.0;
@@ -67,6 +69,15 @@ Iso3 parse_extrinsic(const std::string& text) {
 // Whether an option was on the command line (with --config, the file's value stands otherwise).
 bool given(const SimulateOptions& o, const std::string& name) {
   return o.config_file.empty() || o.app == nullptr || o.app->get_option(name)->count() > 0;
+}
+
+// "default": each container's own default (sim_bag_export.hpp).
+std::optional<io::bag::Compression> bag_compression(const std::string& name) {
+  if (name == "none") return io::bag::Compression::kNone;
+  if (name == "lz4") return io::bag::Compression::kLz4;
+  if (name == "zstd") return io::bag::Compression::kZstd;
+  if (name == "bz2") return io::bag::Compression::kBz2;
+  return std::nullopt;
 }
 
 void check_poses_format(const SimulateOptions& o) {
@@ -210,6 +221,9 @@ int run_simulate(SimulateOptions& o) {
     bag.format = *parse_bag_format(o.format);
     bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
     bag.ins_message = *parse_ins_message(o.ins_message);
+    bag.compression = bag_compression(o.bag_compression);
+    bag.recorder_chunks = o.bag_chunking == "recorder";
+    bag.chunk_bytes = o.bag_chunk_kib * 1024;
     bag.ground_truth = ground_truth_json(world, 0, labels(o));
     ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
     const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
@@ -346,6 +360,18 @@ void add_ins_options(CLI::App* sub, SimulateOptions* o) {
 void add_output_options(CLI::App* sub, SimulateOptions* o) {
   sub->add_option("--format", o->format, "opencalib (PCD folder and pose files) | ros1 | mcap | db3 (a recording)")
       ->check(CLI::IsMember({"opencalib", "ros1", "mcap", "db3"}))
+      ->capture_default_str();
+  sub->add_option("--bag-compression", o->bag_compression,
+                  "recordings: chunk compression default (ros1 lz4, mcap zstd, db3 none) | none | lz4 | zstd (mcap) | bz2 (ros1)")
+      ->check(CLI::IsMember({"default", "none", "lz4", "zstd", "bz2"}))
+      ->capture_default_str();
+  sub->add_option("--bag-chunking", o->bag_chunking,
+                  "mcap: insalign (a point cloud gets a chunk of its own) | recorder (clouds and INS messages share "
+                  "chunks, as ros2 bag record writes them)")
+      ->check(CLI::IsMember({"insalign", "recorder"}))
+      ->capture_default_str();
+  sub->add_option("--bag-chunk-kib", o->bag_chunk_kib, "recordings: a chunk is closed once it holds this many KiB (ros1, mcap)")
+      ->check(CLI::Range(1, 1 << 20))
       ->capture_default_str();
   sub->add_option("--lidar-convention", o->lidar_convention, "recordings: per-point time as hesai | velodyne | ouster | none")
       ->check(CLI::IsMember({"hesai", "velodyne", "ouster", "none"}))

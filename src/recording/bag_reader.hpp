@@ -6,6 +6,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -59,6 +60,24 @@ class BagReader {
     std::vector<std::uint8_t> bytes = read(ref);
     if (bytes.size() > max_bytes) bytes.resize(max_bytes);
     return bytes;
+  }
+
+  /// One message to read_batch(): all of it (max_bytes 0) or its first max_bytes bytes.
+  struct BatchRequest {
+    MessageRef ref;
+    std::size_t max_bytes = 0;
+  };
+  using BatchHandler = std::function<void(std::size_t request, std::vector<std::uint8_t> bytes)>;
+  /// Reads several messages (given in record order), calling on(k, bytes) for requests[k] (in any
+  /// order) from the calling thread. Readers override it where messages sharing a compressed
+  /// chunk can be served by one decompression, only as far as the furthest byte any of them
+  /// needs (MCAP: INS messages before a cloud in the recorder's chunks cost the chunk's first
+  /// block, not the cloud). This default reads each on its own. Thread-safe like read().
+  virtual void read_batch(const std::vector<BatchRequest>& requests, const BatchHandler& on) const {
+    for (std::size_t k = 0; k < requests.size(); ++k) {
+      const BatchRequest& q = requests[k];
+      on(k, q.max_bytes == 0 ? read(q.ref) : read_prefix(q.ref, q.max_bytes));
+    }
   }
 
   /// "ROS 1 bag v2.0, lz4 chunks", "MCAP (ros2 profile), zstd chunks, indexed", ...

@@ -31,13 +31,13 @@ void read_in_record_order(const bag::BagReader& reader, const std::vector<TopicP
     return std::tie(a.log_time_ns, a.ref.locator, a.ref.locator2) < std::tie(b.log_time_ns, b.ref.locator, b.ref.locator2);
   });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, jobs.size(), kGrain), [&](const auto& range) {
-    for (std::size_t j = range.begin(); j != range.end(); ++j) {
-      const Job& job = jobs[j];
-      const TopicPass& pass = passes[job.pass];
-      const std::vector<std::uint8_t> bytes =
-          pass.prefix_bytes == 0 ? reader.read(job.ref) : reader.read_prefix(job.ref, pass.prefix_bytes);
-      pass.on_message(job.index, job.ref, bag::Bytes(bytes));
-    }
+    // One batch per run: the reader serves the messages of a chunk with one decompression.
+    std::vector<bag::BagReader::BatchRequest> requests;
+    for (std::size_t j = range.begin(); j != range.end(); ++j) requests.push_back({jobs[j].ref, passes[jobs[j].pass].prefix_bytes});
+    reader.read_batch(requests, [&](std::size_t k, std::vector<std::uint8_t> bytes) {
+      const Job& job = jobs[range.begin() + k];
+      passes[job.pass].on_message(job.index, job.ref, bag::Bytes(bytes));
+    });
   });
 }
 

@@ -26,6 +26,11 @@ enum class Compression { kNone, kLz4, kZstd, kBz2 };
 struct WriterOptions {
   Compression compression = Compression::kNone;  ///< ROS 1: none/bz2/lz4; MCAP: none/zstd/lz4; db3: none
   std::size_t chunk_bytes = 768 * 1024;          ///< a chunk is closed once it holds this much (rosbag's default)
+  /// MCAP: true, a message of chunk_bytes or more (a point cloud) gets a chunk of its own, so the
+  /// small messages around it stay in small chunks (insalign's layout); false, it joins the open
+  /// chunk, which closes after it, as `ros2 bag record`'s MCAP writer does (clouds and INS
+  /// messages then share chunks). ROS 1 bags are always written the recorder's way.
+  bool large_message_own_chunk = true;
 };
 
 class BagWriter {

@@ -5,7 +5,11 @@
 // message index records after each chunk are read the first time messages() is asked, and a
 // message's chunk is read, CRC-checked and decompressed by read() (recent chunks are cached).
 // read_prefix() decompresses a chunk only as far as the bytes it returns (a cloud's header.stamp
-// costs its first zstd block, not 3 MB), so it cannot check the chunk's CRC; read() does.
+// costs its first zstd block, not 3 MB), so it cannot check the chunk's CRC; read() does, once per
+// chunk and run. read_batch() serves every message of a chunk from one decompression that goes as
+// far as the furthest of them needs (the next message's start, from the message indexes, bounds
+// each): a pass over INS messages and cloud stamps in a recorder's chunks (INS messages, then a
+// cloud) decompresses each chunk's first block or so, not its cloud.
 // A file without a summary (a recording cut off) is streamed from its start up to its last whole
 // record, and a warning says where it stops being readable.
 //
@@ -31,7 +35,8 @@ std::unique_ptr<BagReader> open_mcap(const std::filesystem::path& path);
 /// Writes an MCAP file to a temporary name, renamed by close(). Profile "ros1" or "ros2" by the
 /// encodings of the topics added before the first message ("" when they mix); chunks uncompressed,
 /// zstd or lz4, closed once they hold options.chunk_bytes; a message of chunk_bytes or more gets
-/// a chunk of its own, so that small messages never share a chunk with a point cloud.
+/// a chunk of its own, so that small messages never share a chunk with a point cloud, unless
+/// options.large_message_own_chunk is false (the recorder's layout).
 std::unique_ptr<BagWriter> make_mcap_writer(const std::filesystem::path& path, const WriterOptions& options);
 
 /// True when the bytes start with the MCAP magic 0x89 "MCAP0\r\n".

@@ -261,7 +261,7 @@ void McapWriter::write(std::uint32_t topic, std::int64_t log_time_ns, const std:
   // A message that fills a chunk by itself (a point cloud) gets a chunk of its own: the small
   // messages around it (INS at 100 Hz) then stay in small chunks, and reading all of them does
   // not decompress every cloud of the drive.
-  if (chunk_has_messages_ && kRecordHeaderBytes + kMessageHeaderBytes + bytes.size() >= options_.chunk_bytes) {
+  if (options_.large_message_own_chunk && chunk_has_messages_ && kRecordHeaderBytes + kMessageHeaderBytes + bytes.size() >= options_.chunk_bytes) {
     flush_chunk();
   }
   last_ns_ = log_time_ns;

@@ -75,6 +75,7 @@ class SplitBagReader final : public BagReader {
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
   std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
+  void read_batch(const std::vector<BatchRequest>& requests, const BatchHandler& on) const override;
   std::string describe() const override { return describe_; }
   const std::vector<std::string>& warnings() const override { return warnings_; }
   std::int64_t start_time_ns() const override { return start_ns_; }
@@ -208,6 +209,22 @@ std::vector<std::uint8_t> SplitBagReader::read(const MessageRef& ref) const {
 std::vector<std::uint8_t> SplitBagReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
   const auto [part, inner] = locate(ref);
   return part->read_prefix(inner, max_bytes);
+}
+
+// Runs of requests in one file go to that file's reader as one batch.
+void SplitBagReader::read_batch(const std::vector<BatchRequest>& requests, const BatchHandler& on) const {
+  for (std::size_t begin = 0; begin < requests.size();) {
+    const BagReader* part = locate(requests[begin].ref).first;
+    std::vector<BatchRequest> run;
+    std::size_t end = begin;
+    for (; end < requests.size(); ++end) {
+      const auto [p, inner] = locate(requests[end].ref);
+      if (p != part) break;
+      run.push_back({inner, requests[end].max_bytes});
+    }
+    part->read_batch(run, [&](std::size_t k, std::vector<std::uint8_t> bytes) { on(begin + k, std::move(bytes)); });
+    begin = end;
+  }
 }
 
 }  // namespace

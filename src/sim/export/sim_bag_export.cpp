@@ -410,6 +410,8 @@ SimBagResult write_sim_bag(const sim::World& world, const SimBagOptions& o, cons
   {
     WriterOptions wo;
     wo.compression = o.compression.value_or(default_compression(o.format));
+    wo.chunk_bytes = o.chunk_bytes;
+    wo.large_message_own_chunk = !o.recorder_chunks;
     const std::unique_ptr<BagWriter> writer = make_bag_writer(o.format, result.bag, wo);
     write_messages(world, o, *writer, enu, result, progress);
     writer->close();

@@ -49,6 +49,10 @@ struct SimBagOptions {
   InsMessage ins_message = InsMessage::kInspva;
   /// Default: ROS 1 lz4, MCAP zstd, db3 none.
   std::optional<io::bag::Compression> compression;
+  /// How chunks are cut (io::bag::WriterOptions): insalign's layout by default; `recorder` true
+  /// writes MCAP chunks as `ros2 bag record` does (clouds and INS messages share chunks).
+  bool recorder_chunks = false;
+  std::size_t chunk_bytes = 768 * 1024;  ///< rosbag's and libmcap's default chunk size
   double ins_rate_hz = 100.0;
   insalign::GeodeticPoint origin{48.137154, 11.576124, 520.25};  ///< geodetic messages: the first INS pose
   std::string name = "drive";                              ///< the recording's file (folder) name
