@@ -475,8 +475,9 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
   h += fmt::format("<div class=\"meta\">written {:%Y-%m-%d %H:%M:%S} UTC{}</div>\n", now,
                    data.command_line.empty() ? "" : " &middot; <code>" + esc(data.command_line) + "</code>");
   // Result first: the numbers to put on the car and whether to believe them.
-  h += html_advice(data) + html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
-       html_viewer(images) + html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
+  h += html_advice(data) + html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) +
+       html_stages(data) + html_convergence(data) + html_viewer(images) + html_maps(images) + html_fiducials(data) +
+       html_time_offset(data) + html_observability(data) +
        html_repeatability(data) + html_trajectory_correction(data) + html_output_files(data);
   h += "</body></html>\n";
   write_file_atomic(files.html, h);
