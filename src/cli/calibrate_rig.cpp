@@ -35,13 +35,15 @@ int calibrate_rig(const io::LoadedInput& input, const PipelineConfig& config, co
   ProgressBar bar(options.verbosity);
   // Each LiDAR's report pictures need only its final extrinsic: drawn beside the repeatability study.
   std::vector<std::optional<io::LidarReportDrawing>> drawn(stores.size());
-  const RigBeside draw = [&](std::size_t l, const CalibrationResult& r) { drawn[l] = io::draw_lidar_report(r, stores[l]); };
+  const RigBeside draw = [&](std::size_t l, const CalibrationResult& r) { drawn[l] = io::draw_lidar_report(r, stores[l], options.viewer, stores.size());
+  };
   const RigResult rig = run_rig_calibration(stores, input.lidar_names, config, bar.callback(),
                                             options.no_report ? nullptr : draw);
   const double peak_mb = peak_rss_mb();
   for (io::RunInfo& run : runs) run.peak_memory_mb = peak_mb;
   io::RigOutputOptions out;
   out.report = !options.no_report;
+  out.viewer = options.viewer;
   io::write_rig_outputs(options.out_dir, rig, stores, runs, config, out, [&](double f) { bar.update("outputs", f); },
                         std::move(drawn));
   bar.finish();

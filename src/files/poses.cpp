@@ -131,6 +131,59 @@ std::optional<double> time_from_frame_name(std::string_view name) {
   return static_cast<double>(days * 86400 + v[3] * 3600 + v[4] * 60 + v[5]) + frac;
 }
 
+namespace {
+
+// The format is fixed by the first pose line: 8 values TUM, 13 OpenCalib.
+PoseFormat detect_pose_format(std::size_t values, const std::string& file, const std::string& where) {
+  if (values == 8) return PoseFormat::kTum;
+  if (values == 13) return PoseFormat::kOpenCalib;
+  throw InputError(file, where,
+                   fmt::format("{} values: expected 13 (OpenCalib: frame name and 3x4 T_world_ins) or 8 "
+                               "(TUM: t x y z qx qy qz qw)",
+                               values));
+}
+
+// One pose line (already split, format known) appended to `out`.
+void add_pose_line(const std::vector<std::string_view>& tok, std::size_t line_no, const std::string& file, PoseFile& out) {
+  const std::string where = "line " + std::to_string(line_no);
+  const bool tum = out.format == PoseFormat::kTum;
+  const std::size_t expected = tum ? 8 : 13;
+  if (tok.size() != expected) {
+    throw InputError(file, where,
+                     fmt::format("{} values, expected {} like the lines before ({} format)", tok.size(), expected,
+                                 tum ? "TUM" : "OpenCalib"));
+  }
+  double v[13];
+  for (std::size_t i = (tum ? 0 : 1); i < expected; ++i) {
+    if (!parse_double(tok[i], v[i])) {
+      throw InputError(file, where, fmt::format("value {} is not a finite number: '{}'", i + 1, tok[i]));
+    }
+  }
+  Iso3 T_world_ins = Iso3::Identity();
+  if (tum) {
+    Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
+    const double norm = q.norm();
+    if (std::abs(norm - 1.0) > kOrthonormalTolerance) {
+      throw InputError(file, where, fmt::format("quaternion norm {:.6g} is not 1", norm));
+    }
+    if (std::abs(norm - 1.0) > kRoundingTolerance) ++out.reorthonormalised;
+    T_world_ins.linear() = q.normalized().toRotationMatrix();
+    T_world_ins.translation() = Vec3(v[1], v[2], v[3]);
+    out.t_s.push_back(v[0]);
+  } else {
+    Mat3 R;
+    R << v[1], v[2], v[3], v[5], v[6], v[7], v[9], v[10], v[11];
+    T_world_ins.linear() = checked_rotation(R, file, where, &out.reorthonormalised);
+    T_world_ins.translation() = Vec3(v[4], v[8], v[12]);
+    out.frame_names.emplace_back(tok[0]);
+    out.t_s.push_back(time_from_frame_name(tok[0]).value_or(std::numeric_limits<double>::quiet_NaN()));
+  }
+  out.T_world_ins.push_back(T_world_ins);
+  out.line.push_back(line_no);
+}
+
+}  // namespace
+
 PoseFile read_pose_file(const std::filesystem::path& path) {
   const std::string file = path.string();
   const std::string text = read_file(path);
@@ -146,53 +199,9 @@ PoseFile read_pose_file(const std::filesystem::path& path) {
     if (const std::size_t hash = line.find('#'); hash != std::string_view::npos) line = line.substr(0, hash);
     const auto tok = split_ws(line);
     if (tok.empty()) continue;
-    const std::string where = "line " + std::to_string(line_no);
-    if (!format_known) {
-      if (tok.size() == 8) {
-        out.format = PoseFormat::kTum;
-      } else if (tok.size() == 13) {
-        out.format = PoseFormat::kOpenCalib;
-      } else {
-        throw InputError(file, where,
-                         fmt::format("{} values: expected 13 (OpenCalib: frame name and 3x4 T_world_ins) or 8 "
-                                     "(TUM: t x y z qx qy qz qw)",
-                                     tok.size()));
-      }
-      format_known = true;
-    }
-    const std::size_t expected = out.format == PoseFormat::kTum ? 8 : 13;
-    if (tok.size() != expected) {
-      throw InputError(file, where,
-                       fmt::format("{} values, expected {} like the lines before ({} format)", tok.size(), expected,
-                                   out.format == PoseFormat::kTum ? "TUM" : "OpenCalib"));
-    }
-    double v[13];
-    for (std::size_t i = (out.format == PoseFormat::kTum ? 0 : 1); i < expected; ++i) {
-      if (!parse_double(tok[i], v[i])) {
-        throw InputError(file, where, fmt::format("value {} is not a finite number: '{}'", i + 1, tok[i]));
-      }
-    }
-    Iso3 T_world_ins = Iso3::Identity();
-    if (out.format == PoseFormat::kTum) {
-      Eigen::Quaterniond q(v[7], v[4], v[5], v[6]);
-      const double norm = q.norm();
-      if (std::abs(norm - 1.0) > kOrthonormalTolerance) {
-        throw InputError(file, where, fmt::format("quaternion norm {:.6g} is not 1", norm));
-      }
-      if (std::abs(norm - 1.0) > kRoundingTolerance) ++out.reorthonormalised;
-      T_world_ins.linear() = q.normalized().toRotationMatrix();
-      T_world_ins.translation() = Vec3(v[1], v[2], v[3]);
-      out.t_s.push_back(v[0]);
-    } else {
-      Mat3 R;
-      R << v[1], v[2], v[3], v[5], v[6], v[7], v[9], v[10], v[11];
-      T_world_ins.linear() = checked_rotation(R, file, where, &out.reorthonormalised);
-      T_world_ins.translation() = Vec3(v[4], v[8], v[12]);
-      out.frame_names.emplace_back(tok[0]);
-      out.t_s.push_back(time_from_frame_name(tok[0]).value_or(std::numeric_limits<double>::quiet_NaN()));
-    }
-    out.T_world_ins.push_back(T_world_ins);
-    out.line.push_back(line_no);
+    if (!format_known) out.format = detect_pose_format(tok.size(), file, "line " + std::to_string(line_no));
+    format_known = true;
+    add_pose_line(tok, line_no, file, out);
   }
   if (out.T_world_ins.empty()) throw InputError(file, "", "no poses in the file");
   return out;

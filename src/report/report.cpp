@@ -140,6 +140,13 @@ ReportImages draw_report_images(std::size_t maps, const std::function<MapSnapsho
   return images;
 }
 
+std::vector<Section> report_sections(const ReportImages& images) {
+  std::vector<Section> out;
+  if (images.wall) out.push_back(*images.wall);
+  if (images.ground) out.push_back(*images.ground);
+  return out;
+}
+
 ReportImages draw_report_images(const std::vector<MapSnapshot>& maps) {
   return draw_report_images(maps.size(), [&](std::size_t i) { return maps[i]; });
 }
@@ -293,6 +300,14 @@ std::string html_trajectory_correction(const ReportData& data) {
          esc(c.decision) + "</p>\n<div>" + svg_line_plot(plot) + "</div>\n";
 }
 
+// The 3D view (report/viewer.hpp), before the pictures it complements.
+std::string html_viewer(const ReportImages& images) {
+  if (images.viewer.html.empty()) return "";
+  return "<h2>3D map: start and result</h2>\n<p>The stitched map placed with the starting extrinsic and with the result: "
+         "switch with <kbd>B</kbd> (the camera stays), look for walls that double and poles that lean.</p>\n" +
+         images.viewer.html;
+}
+
 std::string html_maps(const ReportImages& images) {
   const auto& snaps = images.snaps;
   const auto& wall = images.wall;
@@ -441,6 +456,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
     write_file_atomic(out_dir / rel, png);
     files.images.push_back(out_dir / rel);
   }
+  for (const auto& [rel, content] : images.viewer.files) write_file_atomic(out_dir / rel, content);
   for (const SnapshotImages& s : images.snaps)
     files.section_thickness_m.emplace_back(images.wall ? s.wall.thickness_m : std::nan(""),
                                            images.ground ? s.ground.thickness_m : std::nan(""));
@@ -452,7 +468,7 @@ ReportFiles write_report(const std::filesystem::path& out_dir, const ReportData&
                    data.command_line.empty() ? "" : " &middot; <code>" + esc(data.command_line) + "</code>");
   // Result first: the numbers to put on the car and whether to believe them.
   h += html_result(data) + html_warnings(data) + html_left_out(data) + html_inputs(data) + html_stages(data) + html_convergence(data) +
-       html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
+       html_viewer(images) + html_maps(images) + html_fiducials(data) + html_time_offset(data) + html_observability(data) +
        html_repeatability(data) + html_trajectory_correction(data) + html_output_files(data);
   h += "</body></html>\n";
   write_file_atomic(files.html, h);

@@ -14,6 +14,7 @@
 
 #include "core/geometry.hpp"
 #include "report/render.hpp"
+#include "report/viewer.hpp"
 
 namespace insalign::io {
 
@@ -127,7 +128,10 @@ struct ReportImages {
   std::vector<SnapshotImages> snaps;  ///< per map, in map order
   std::optional<Section> wall, ground;  ///< picked on the final map
   std::vector<std::pair<std::string, std::string>> png_files;  ///< (file relative to the report, PNG bytes)
+  ViewerOutput viewer;  ///< the 3D view (report/viewer*.js); empty html: none
 };
+/// The sections picked on the final map, as the viewer marks them.
+std::vector<Section> report_sections(const ReportImages& images);
 ReportImages draw_report_images(const std::vector<MapSnapshot>& maps);
 /// The same, with map i (the final map last) stitched by `map(i)` only when it is drawn and freed
 /// after: one map's points held at a time, not all of them.

@@ -13,6 +13,7 @@
 #include "files/atomic_file.hpp"
 #include "report/render.hpp"
 #include "report/rig_outputs.hpp"
+#include "report/viewer.hpp"
 
 namespace insalign::io {
 namespace {
@@ -183,7 +184,8 @@ std::string lidar_section(const RigLidar& lidar) {
 }  // namespace
 
 std::filesystem::path write_rig_report(const std::filesystem::path& out_dir, const RigResult& rig,
-                                       const std::vector<RigReportMaps>& maps, const std::string& command_line) {
+                                       const std::vector<RigReportMaps>& maps, const std::string& command_line,
+                                       const ViewerScene* scene) {
   ensure_writable_dir(out_dir);
   const auto now = std::chrono::floor<std::chrono::seconds>(std::chrono::system_clock::now());
   std::string h = "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>insalign rig calibration report"
@@ -196,7 +198,11 @@ std::filesystem::path write_rig_report(const std::filesystem::path& out_dir, con
                    rig.wall_time_s);
   h += "<h2>Result: T_ins_lidar per LiDAR (ZYX roll, pitch, yaw in degrees)</h2>\n" + lidar_table(rig);
   for (const std::string& w : rig.warnings) h += "<p class=\"warn\">warning: " + esc(w) + "</p>\n";
-  h += pair_tables(rig) + map_images(out_dir, maps);
+  h += pair_tables(rig);
+  if (scene && scene->size() > 0)
+    h += "<h2>3D map: start and result, every LiDAR</h2>\n<p>Switch with <kbd>B</kbd> (the camera stays); <kbd>C</kbd> "
+         "colours by LiDAR: each LiDAR's surfaces should fall on the others'.</p>\n" + write_viewer(out_dir, *scene);
+  h += map_images(out_dir, maps);
   for (const RigLidar& lidar : rig.lidars) h += lidar_section(lidar);
   h += "</body></html>\n";
   write_file_atomic(out_dir / "report.html", h);

@@ -1,6 +1,7 @@
 #include "report/result_outputs.hpp"
 
 #include <fmt/format.h>
+#include <tbb/parallel_invoke.h>
 
 #include <cmath>
 
@@ -281,6 +282,28 @@ MapSnapshot report_map(const CalibrationResult& r, const FrameStore& store, cons
     default:  // the moving things the stages left out, in magenta
       return map_snapshot("final", store, frames, r.T_ins_lidar, r.time_offset_s, r.moving.mask.get());
   }
+}
+
+ViewerScene report_viewer_scene(const CalibrationResult& r, const FrameStore& store, const std::vector<std::size_t>& frames,
+                                const ViewerConfig& viewer) {
+  return viewer_scene(store, frames, {{"start", r.init.T_ins_lidar, 0.0}, {"final", r.T_ins_lidar, r.time_offset_s}},
+                      r.excluded, r.moving.mask.get(), viewer);
+}
+
+ReportImages report_images(const CalibrationResult& r, const FrameStore& store, const ViewerConfig& viewer) {
+  const std::vector<std::size_t> frames = report_frames(store, r);
+  ReportImages images;
+  ViewerScene scene;
+  // The viewer's points are placed while the pictures are drawn: the report takes no longer.
+  tbb::parallel_invoke(
+      [&] { images = draw_report_images(kReportMaps, [&](std::size_t i) { return report_map(r, store, frames, i); }); },
+      [&] {
+        if (viewer.max_points > 0) scene = report_viewer_scene(r, store, frames, viewer);
+      });
+  if (scene.size() == 0) return images;
+  scene.sections = report_sections(images);
+  images.viewer = encode_viewer(scene);
+  return images;
 }
 
 std::vector<MapSnapshot> report_maps(const CalibrationResult& r, const FrameStore& store) {

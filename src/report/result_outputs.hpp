@@ -43,6 +43,13 @@ std::vector<std::size_t> report_frames(const FrameStore& store, const Calibratio
 inline constexpr std::size_t kReportMaps = 3;
 MapSnapshot report_map(const CalibrationResult& result, const FrameStore& store, const std::vector<std::size_t>& frames,
                        std::size_t i);
+/// The report's pictures (draw_report_images of report_map) and, drawn beside them, the 3D view
+/// of the same frames at the start's and the final extrinsic (no view when viewer.max_points is 0).
+ReportImages report_images(const CalibrationResult& result, const FrameStore& store, const ViewerConfig& viewer);
+/// The 3D view's scene alone (sections not set): start and final extrinsic, moving points and
+/// left-out INS stretches marked.
+ViewerScene report_viewer_scene(const CalibrationResult& result, const FrameStore& store,
+                                const std::vector<std::size_t>& frames, const ViewerConfig& viewer);
 /// All of them, start first.
 std::vector<MapSnapshot> report_maps(const CalibrationResult& result, const FrameStore& store);
 

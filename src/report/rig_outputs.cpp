@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <atomic>
 
@@ -97,7 +98,7 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
   run.format_files = write_all_formats(dir, r.T_ins_lidar, FrameNames{"ins", lidar.name});
   write_opencalib_extrinsic(dir / "gnss-to-lidar-extrinsic.json", r.T_ins_lidar);
   if (options.report) {
-    if (!drawn) drawn = draw_lidar_report(r, store);
+    if (!drawn) drawn = draw_lidar_report(r, store, options.viewer, 1);
     ReportData data = report_data(r, store, run, config);
     data.title = "insalign calibration report: LiDAR '" + lidar.name + "' of the rig";
     data.child_frame = lidar.name;
@@ -196,10 +197,25 @@ std::string format_rig_urdf(const RigResult& rig) {
   return s + "</robot>\n";
 }
 
-LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store) {
+LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store, const ViewerConfig& viewer,
+                                     std::size_t lidars) {
   LidarReportDrawing out;
-  out.maps = report_maps(r, store);
-  out.images = draw_report_images(out.maps);
+  ViewerConfig share = viewer;
+  share.max_points = viewer.max_points / (2 * std::max<std::size_t>(lidars, 1));
+  const std::vector<std::size_t> frames = report_frames(store, r);
+  // The 3D view's points placed while the pictures are drawn (result_outputs.cpp report_images).
+  tbb::parallel_invoke(
+      [&] {
+        for (std::size_t i = 0; i < kReportMaps; ++i) out.maps.push_back(report_map(r, store, frames, i));
+        out.images = draw_report_images(out.maps);
+      },
+      [&] {
+        if (share.max_points > 0) out.scene = report_viewer_scene(r, store, frames, share);
+      });
+  if (out.scene.size() > 0) {
+    out.scene.sections = report_sections(out.images);
+    out.images.viewer = encode_viewer(out.scene);
+  }
   // The rig's report shows the first and the last map only: the others' points are not kept.
   if (out.maps.size() > 2) out.maps.erase(out.maps.begin() + 1, out.maps.end() - 1);
   return out;
@@ -226,8 +242,16 @@ std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path
   files.push_back(out_dir / kRigUrdfFile);
   if (options.report) {
     std::vector<std::vector<MapSnapshot>> lidar_maps(n);
-    for (std::size_t l = 0; l < n; ++l) lidar_maps[l] = std::move(drawn[l]->maps);
-    files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line));
+    std::vector<ViewerScene> scenes(n);
+    std::vector<std::string> names;
+    for (std::size_t l = 0; l < n; ++l) {
+      lidar_maps[l] = std::move(drawn[l]->maps);
+      scenes[l] = std::move(drawn[l]->scene);
+      scenes[l].sections.clear();  // each LiDAR's own; the rig's report marks none of them
+      names.push_back(rig.lidars[l].name);
+    }
+    const ViewerScene scene = merge_scenes(std::move(scenes), names);
+    files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line, &scene));
   }
   write_file_atomic(out_dir / kRigJsonFile, rig_to_json(rig).dump(2) + "\n");
   files.push_back(out_dir / kRigJsonFile);

@@ -50,15 +50,19 @@ std::string format_rig_urdf(const RigResult& rig);
 struct RigOutputOptions {
   bool report = true;
   std::string command_line;
+  ViewerConfig viewer;  ///< the rig's 3D view holds viewer.max_points / 2, each LiDAR's own the rest
 };
 
 /// A LiDAR's report pictures and the maps the rig's report reuses.
 struct LidarReportDrawing {
   std::vector<MapSnapshot> maps;  ///< the first (start) and the last (final) map
   ReportImages images;
+  ViewerScene scene;  ///< its 3D view's points, merged into the rig's
 };
 /// Needs only the final extrinsic: calibrate draws it beside the repeatability study (RigBeside).
-LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store);
+/// `lidars`: the rig's LiDAR count; each LiDAR's view gets viewer.max_points / (2 * lidars).
+LidarReportDrawing draw_lidar_report(const CalibrationResult& r, const FrameStore& store, const ViewerConfig& viewer = {},
+                                     std::size_t lidars = 1);
 
 /// Writes everything into out_dir (each file atomically; rig.json last: its presence means the
 /// whole result is there); returns the files written at the top level. drawn[l]: LiDAR l's
@@ -85,7 +89,9 @@ struct RigReportMaps {
   std::vector<std::vector<Vec3f>> p_world;     ///< per LiDAR
   std::vector<Vec3f> p_moving_world;           ///< every LiDAR's points on moving things (left out): magenta
 };
+/// scene: the combined 3D view (merge_scenes of the LiDARs'), nullptr or empty: none.
 std::filesystem::path write_rig_report(const std::filesystem::path& out_dir, const RigResult& rig,
-                                       const std::vector<RigReportMaps>& maps, const std::string& command_line);
+                                       const std::vector<RigReportMaps>& maps, const std::string& command_line,
+                                       const ViewerScene* scene = nullptr);
 
 }  // namespace insalign::io

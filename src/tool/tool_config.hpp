@@ -10,6 +10,7 @@
 
 #include "core/pipeline.hpp"
 #include "input/input_config.hpp"
+#include "report/viewer.hpp"
 #include "sim/simulate_config.hpp"
 
 namespace insalign::cli {
@@ -18,6 +19,7 @@ struct ToolConfig {
   PipelineConfig calibrate;
   io::InputConfig input;
   sim::SimConfig sim;
+  io::ViewerConfig report;  ///< the report's 3D view
 };
 
 template <class V>
@@ -25,6 +27,7 @@ void visit_config(V& v, ToolConfig& c) {
   visit_config(v, c.calibrate);
   v.section("input", c.input);
   v.section("sim", c.sim);
+  v.section("report", c.report);
 }
 
 /// Defaults overridden by the YAML file. Throws InputError(path, "line N", ...).
