@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/check_run.hpp"
 #include "core/pipeline.hpp"
 #include "io/input_config.hpp"
 #include "sim/simulate_config.hpp"
@@ -16,6 +17,7 @@ namespace insalign::cli {
 
 struct ToolConfig {
   PipelineConfig calibrate;
+  CheckRunConfig check;  ///< insalign check: tolerances, verdict rules, stretches, history
   io::InputConfig input;
   sim::SimConfig sim;
 };
@@ -23,6 +25,7 @@ struct ToolConfig {
 template <class V>
 void visit_config(V& v, ToolConfig& c) {
   visit_config(v, c.calibrate);
+  v.section("check", c.check);
   v.section("input", c.input);
   v.section("sim", c.sim);
 }
