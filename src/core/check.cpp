@@ -153,6 +153,19 @@ std::string verdict_message(const std::array<DofCheck, 7>& dofs, CheckVerdict ve
   return out;
 }
 
+CorrectedExtrinsic corrected_extrinsic(const Iso3& T_installed, double offset_installed_s,
+                                       const std::array<DofCheck, 7>& dofs) {
+  Vec7 c = Vec7::Zero();
+  for (int i = 0; i < 7; ++i)
+    if (std::isfinite(dofs[i].stddev) && std::isfinite(dofs[i].correction)) c(i) = dofs[i].correction;
+  CorrectedExtrinsic out;
+  out.T_ins_lidar = T_installed;
+  out.T_ins_lidar.linear() = rotation_from_rpy(c.segment<3>(3) * kRadPerDeg) * T_installed.linear();
+  out.T_ins_lidar.translation() = T_installed.translation() + c.head<3>();
+  out.time_offset_s = offset_installed_s + c(6);
+  return out;
+}
+
 CheckFindings judge_extrinsic(const Iso3& T_installed, double offset_installed_s, const MeasuredExtrinsic& measured,
                               const CheckConfig& config) {
   CheckFindings f;

@@ -117,6 +117,15 @@ CheckVerdict overall_verdict(const std::array<DofCheck, 7>& dofs, const std::arr
 CheckFindings judge_extrinsic(const Iso3& T_ins_lidar_installed, double time_offset_installed_s,
                               const MeasuredExtrinsic& measured, const CheckConfig& config);
 
+/// The installed extrinsic with the corrections of `dofs` applied where the drive determined them
+/// (finite stddev); the others keep their installed value. Rotations: R = Rz Ry Rx(c) R_installed.
+struct CorrectedExtrinsic {
+  Iso3 T_ins_lidar = Iso3::Identity();
+  double time_offset_s = 0.0;
+};
+CorrectedExtrinsic corrected_extrinsic(const Iso3& T_ins_lidar_installed, double time_offset_installed_s,
+                                       const std::array<DofCheck, 7>& dofs);
+
 /// The verdict message for dofs already judged (used again when the history combines drives).
 std::string verdict_message(const std::array<DofCheck, 7>& dofs, CheckVerdict verdict,
                             const std::array<bool, 7>& unchecked);

@@ -52,6 +52,7 @@ struct CheckRun {
   double crispness_installed_m = std::numeric_limits<double>::quiet_NaN();
   double crispness_corrected_m = std::numeric_limits<double>::quiet_NaN();
   std::size_t frames_decoded = 0;
+  std::size_t frames_total = 0;  ///< sweeps in the drive
   double wall_time_s = 0.0;
 };
 
