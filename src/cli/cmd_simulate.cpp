@@ -42,6 +42,7 @@ struct SimulateOptions {
   std::string ins_error = "rtk-fixed";
   double ins_drift_m_per_sqrt_s = -1.0;  ///< < 0: the model's default
   std::string extrinsic;
+  std::string knock;  ///< --knock "dx dy dz droll dpitch dyaw"
   std::string pcd_encoding = "binary_compressed";
   std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
   std::string poses_format = "opencalib";  ///< sim_ins_export.hpp
@@ -73,6 +74,18 @@ Iso3 parse_extrinsic(const std::string& text) {
   return make_transform(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
 }
 
+Vec6 parse_knock(const std::string& text) {
+  std::istringstream in(text);
+  Vec6 v;
+  for (int i = 0; i < 6; ++i) {
+    if (!(in >> v(i)) || !std::isfinite(v(i)))
+      throw UsageError("--knock needs six numbers \"dx dy dz droll dpitch dyaw\" (m, deg), got \"" + text + "\"");
+  }
+  std::string rest;
+  if (in >> rest) throw UsageError("--knock needs exactly six numbers, got \"" + text + "\"");
+  return v;
+}
+
 // Whether an option was on the command line (with --config, the file's value stands otherwise).
 bool given(const SimulateOptions& o, const std::string& name) {
   return o.config_file.empty() || o.app == nullptr || o.app->get_option(name)->count() > 0;
@@ -91,17 +104,14 @@ void check_poses_format(const SimulateOptions& o) {
 
 void apply_trajectory(SimulateOptions& o) {
   sim::SimConfig& c = o.config;
-  if (o.trajectory == "figure8") {
-    c.trajectory = sim::TrajectoryKind::kFigure8;
-  } else if (o.trajectory == "straight") {
-    c.trajectory = sim::TrajectoryKind::kStraight;
-  } else if (o.trajectory == "standstill") {
-    c.trajectory = sim::TrajectoryKind::kStandstill;
+  if (const auto kind = enum_from_name<sim::TrajectoryKind>(o.trajectory)) {
+    c.trajectory = *kind;
   } else {
     c.trajectory = sim::TrajectoryKind::kRecorded;
     if (!fs::is_regular_file(o.trajectory))
       throw UsageError("--trajectory \"" + o.trajectory +
-                       "\" is neither figure8, straight, standstill nor an existing pose file");
+                       "\" is neither figure8, straight, standstill, city-loop, urban-grid, highway, parking-lot nor an "
+                       "existing pose file");
     const io::PoseFile file = io::read_pose_file(o.trajectory);
     bool timed = true;
     for (double t : file.t_s) timed = timed && std::isfinite(t);
@@ -128,18 +138,27 @@ void apply_options(SimulateOptions& o) {
   check_poses_format(o);
   if (given(o, "--trajectory")) apply_trajectory(o);
   if (!o.extrinsic.empty()) c.T_ins_lidar = parse_extrinsic(o.extrinsic);
+  if (!o.knock.empty()) c.knock = parse_knock(o.knock);
   if (o.frames > 0) c.duration_s = o.frames / c.frame_rate_hz;
 }
 
 const char* scene_name(sim::SceneKind k) { return k == sim::SceneKind::kFeaturePoor ? "feature-poor" : "intersection"; }
-const char* trajectory_name(sim::TrajectoryKind k) {
-  switch (k) {
-    case sim::TrajectoryKind::kFigure8: return "figure8";
-    case sim::TrajectoryKind::kStraight: return "straight";
-    case sim::TrajectoryKind::kStandstill: return "standstill";
-    case sim::TrajectoryKind::kRecorded: return "recorded";
+std::string trajectory_name(sim::TrajectoryKind k) {
+  return k == sim::TrajectoryKind::kRecorded ? "recorded" : std::string(enum_name(k));
+}
+
+// installed-extrinsic.json (per LiDAR of a rig: installed-extrinsic-<name>.json): what the car
+// believes, in the extrinsic.json shape `insalign check --extrinsic` reads; the true extrinsic
+// unless --knock moved the mount.
+void write_installed(const sim::World& w, const fs::path& out) {
+  for (const sim::SimLidar& l : w.lidars) {
+    const std::string suffix = w.lidars.size() > 1 ? "-" + l.name : "";
+    nlohmann::json j;
+    j["T_ins_lidar"] = io::transform_to_json(l.T_ins_lidar_installed);
+    j["time_offset_s"] = l.time_offset_s;
+    j["source"] = "insalign simulate: the installed extrinsic (the truth, knocked by --knock)";
+    io::write_file_atomic(out / ("installed-extrinsic" + suffix + ".json"), j.dump(2) + "\n");
   }
-  return "?";
 }
 
 // The INS error's ground truth; only written when it differs from the default RTK-fixed model
@@ -209,6 +228,8 @@ nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, 
   j["time_offset_s"] = w.lidars.front().time_offset_s;  // = c.time_offset_s but in a rig
   j["ins_height_m"] = w.ins_height_m;
   j["T_ins_lidar_init"] = io::transform_to_json(w.T_ins_lidar_init);
+  j["T_ins_lidar_installed"] = io::transform_to_json(w.lidars.front().T_ins_lidar_installed);
+  j["knock"] = {{"translation_m", {c.knock(0), c.knock(1), c.knock(2)}}, {"rpy_deg", {c.knock(3), c.knock(4), c.knock(5)}}};
   j["init_error"] = {{"angle_deg", init_err.angle_deg}, {"dt_norm_m", init_err.dt_norm_m}};
   j["frames"] = w.frame_count();
   j["points"] = points;
@@ -372,6 +393,7 @@ void write_metadata(const SimulateOptions& o, const sim::World& w, const fs::pat
   nlohmann::json gt = ground_truth_json(o, w, r.points.front());
   if (is_rig(w)) gt["lidars"] = rig_json(w, r);
   io::write_file_atomic(out / "ground_truth.json", gt.dump(2) + "\n");
+  write_installed(w, out);
 }
 
 void print_summary(const SimulateOptions& o, const sim::World& w, const fs::path& out, const Rendered& r, double elapsed_s) {
@@ -419,6 +441,7 @@ int run_kitti(const SimulateOptions& o, const sim::World& world) {
   const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
   const SimInsResult r = write_sim_kitti_raw(world, ins_log_options(o, world, 0), o.out, o.quiet ? SimInsProgress{} : SimInsProgress(print));
   bar.finish();
+  write_installed(world, o.out);
   fmt::print("wrote a KITTI raw drive of {} frames ({} points) to {} (--kitti-raw {})\n", r.frames, r.points, o.out, r.poses.string());
   print_ins_log(r);
   return kExitOk;
@@ -450,6 +473,7 @@ int run_simulate(SimulateOptions& o) {
     const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
     const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
     bar.finish();
+    write_installed(world, o.out);
     fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
                r.bag.string(), r.ins_frame);
     return kExitOk;
@@ -485,7 +509,9 @@ void add_drive_options(CLI::App* sub, SimulateOptions* o) {
   sub->add_option("--scene", o->scene, "intersection | feature-poor")
       ->check(CLI::IsMember({"intersection", "feature-poor"}))
       ->capture_default_str();
-  sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
+  sub->add_option("--trajectory", o->trajectory,
+                  "figure8 | straight | standstill (calibration drives) | city-loop | urban-grid | highway | parking-lot "
+                  "(ordinary drives: stops, turns, 180 s unless --duration-s) | a pose FILE to follow")
       ->capture_default_str();
   sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
   auto* frames = sub->add_option("--frames", o->frames, "number of frames (truncates the drive)")
@@ -504,6 +530,13 @@ void add_drive_options(CLI::App* sub, SimulateOptions* o) {
       ->check(CLI::Range(0, 500))
       ->capture_default_str();
   sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+  sub->add_option("--ordinary-speed-kmh", c.ordinary_speed_kmh,
+                  "ordinary drives' cruise speed (0: the kind's own: city 30, highway 90, parking 10)")
+      ->check(CLI::Range(0.0, 150.0))
+      ->capture_default_str();
+  sub->add_option("--knock", o->knock,
+                  "the mount moved by \"dx dy dz droll dpitch dyaw\" (m, deg, INS frame) since installed-extrinsic.json was "
+                  "right: the truth is the installed extrinsic knocked");
   sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
   sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
       ->check(CLI::Range(0.0, 180.0))

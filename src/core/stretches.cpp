@@ -73,7 +73,8 @@ std::vector<Stretch> merge(std::vector<Window> picked) {
     if (!out.empty() && w.begin_s <= out.back().end_s + 1e-6) {
       out.back().end_s = w.end_s;
       out.back().score += w.score;
-      out.back().why += "; " + describe(w);
+      const std::string why = describe(w);
+      if (out.back().why.find(why) == std::string::npos) out.back().why += "; " + why;
       continue;
     }
     out.push_back({w.begin_s, w.end_s, w.score, describe(w)});
