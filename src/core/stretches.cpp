@@ -39,8 +39,10 @@ Window measure_window(const PoseStream& poses, double t0, double t1) {
     prev_speed = speed;
     if (horizontal < 0.3 * kSampleS) continue;  // slower than 0.3 m/s: no heading
     const double heading = std::atan2(d.y(), d.x());
-    const double slope = std::atan2(d.z(), horizontal);
-    slope_min = std::min(slope_min, slope), slope_max = std::max(slope_max, slope);
+    if (horizontal > 2.0 * kSampleS) {  // slower, the INS's height noise would read as a slope
+      const double slope = std::atan2(d.z(), horizontal);
+      slope_min = std::min(slope_min, slope), slope_max = std::max(slope_max, slope);
+    }
     if (n_heading++ > 0) {
       const double dh = wrap_pi(heading - prev_heading);
       w.turned_rad += std::abs(dh);

@@ -14,11 +14,12 @@
 namespace insalign {
 
 struct StretchConfig {
-  /// Stretches are whole windows of this length; 20 s holds a turn from its approach to its exit.
-  double window_s = 20.0;
-  /// At most this much drive is used; a shorter drive is used whole. 150 s of turns and stops
-  /// is what a 3-minute city drive holds.
-  double budget_s = 150.0;
+  /// Stretches are whole windows of this length; 30 s holds a turn with its approach and exit.
+  double window_s = 30.0;
+  /// At most this much drive is used; a shorter drive is used whole. 150 s of 20 s windows left
+  /// ty and roll undecided on a 10-minute city drive that 300 s of 30 s windows decided
+  /// (bench/results/check.md); the stages decode about as many sweeps either way.
+  double budget_s = 300.0;
   /// Score of a window: its turned angle (rad) + this x its RMS longitudinal acceleration (m/s^2)
   /// + slope_weight x its pitch range (rad).
   double accel_weight = 0.5;
