@@ -9,7 +9,6 @@
 #include "io/extrinsic_json.hpp"
 #include "io/formats.hpp"
 #include "io/read_file.hpp"
-#include "io/rig_outputs.hpp"
 
 namespace insalign::io {
 namespace {
@@ -21,6 +20,22 @@ std::string line_at(std::string_view text, std::size_t byte) {
   return "line " + std::to_string(1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(byte), '\n'));
 }
 
+// {"T_ins_lidar": 4x4, "time_offset_s": optional}: extrinsic.json, or one LiDAR of rig.json.
+InstalledExtrinsic one_extrinsic(const json& j, const std::string& file, const std::string& where, const std::string& name,
+                                 const char* format) {
+  if (!j.is_object() || !j.contains("T_ins_lidar"))
+    throw InputError(file, where, "expected an object with \"T_ins_lidar\"");
+  InstalledExtrinsic e{name, transform_from_json(j.at("T_ins_lidar"), file + (where.empty() ? "" : " (" + where + ")")), 0.0,
+                       format};
+  if (j.contains("time_offset_s")) {
+    const json& t = j.at("time_offset_s");
+    if (!t.is_number() || !std::isfinite(t.get<double>()))
+      throw InputError(file, where.empty() ? "time_offset_s" : where + ".time_offset_s", "not a finite number");
+    e.time_offset_s = t.get<double>();
+  }
+  return e;
+}
+
 std::vector<InstalledExtrinsic> from_json(std::string_view text, const std::string& file) {
   json j;
   try {
@@ -29,22 +44,14 @@ std::vector<InstalledExtrinsic> from_json(std::string_view text, const std::stri
     throw InputError(file, line_at(text, e.byte > 0 ? e.byte - 1 : 0), "malformed JSON");
   }
   if (!j.is_object()) throw InputError(file, "", "expected a JSON object (extrinsic.json, rig.json or OpenCalib)");
-  if (j.contains("lidars")) {
+  if (j.contains("lidars")) {  // rig.json; only the extrinsic and the time offset are needed here
+    const json& lidars = j.at("lidars");
+    if (!lidars.is_object() || lidars.empty()) throw InputError(file, "lidars", "expected an object with one key per LiDAR");
     std::vector<InstalledExtrinsic> out;
-    for (const RigFileLidar& l : parse_rig_json(text, file).lidars)
-      out.push_back({l.name, l.T_ins_lidar, l.time_offset_s, "rig.json"});
+    for (const auto& [name, l] : lidars.items()) out.push_back(one_extrinsic(l, file, "lidars." + name, name, "rig.json"));
     return out;
   }
-  if (j.contains("T_ins_lidar")) {
-    InstalledExtrinsic e{"", transform_from_json(j.at("T_ins_lidar"), file), 0.0, "extrinsic.json"};
-    if (j.contains("time_offset_s")) {
-      const json& t = j.at("time_offset_s");
-      if (!t.is_number() || !std::isfinite(t.get<double>()))
-        throw InputError(file, "time_offset_s", "not a finite number");
-      e.time_offset_s = t.get<double>();
-    }
-    return {e};
-  }
+  if (j.contains("T_ins_lidar")) return {one_extrinsic(j, file, "", "", "extrinsic.json")};
   for (const auto& [key, entry] : j.items()) {  // OpenCalib: {key: {param: {sensor_calib: {data: T_lidar_ins}}}}
     if (!entry.is_object() || !entry.contains("param") || !entry["param"].is_object()) continue;
     const json& param = entry["param"];
