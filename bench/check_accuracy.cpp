@@ -15,7 +15,7 @@
 #include <map>
 #include <memory>
 
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/check_run.hpp"
 #include "sim/world_dataset.hpp"
 

@@ -23,7 +23,7 @@
 #include <sstream>
 
 #include "scenarios.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/pipeline.hpp"
 #include "sim/world_dataset.hpp"
 

@@ -13,7 +13,7 @@
 #include <filesystem>
 #include <vector>
 
-#include "io/pcd.hpp"
+#include "pointcloud/pcd.hpp"
 
 namespace {
 

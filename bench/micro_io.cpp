@@ -13,7 +13,7 @@
 #include <system_error>
 #include <unistd.h>
 
-#include "io/pcd.hpp"
+#include "pointcloud/pcd.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign {

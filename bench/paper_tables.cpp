@@ -15,7 +15,7 @@
 #include <limits>
 
 #include "scenarios.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/pipeline.hpp"
 #include "sim/world_dataset.hpp"
 

@@ -17,7 +17,7 @@
 
 #include "core/pipeline.hpp"
 #include "core/rough.hpp"
-#include "io/poses.hpp"
+#include "files/poses.hpp"
 #include "sim/world_dataset.hpp"
 
 namespace insalign {

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "io/poses.hpp"
+#include "files/poses.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign::bench {

@@ -14,7 +14,7 @@
 #include <cmath>
 #include <memory>
 
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/enum_names.hpp"
 #include "core/ins_screen.hpp"
 #include "core/moving_points.hpp"

@@ -16,7 +16,7 @@
 #include <random>
 
 #include "core/zcorrect.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/pipeline.hpp"
 #include "sim/world_dataset.hpp"
 

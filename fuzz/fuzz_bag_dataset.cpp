@@ -3,8 +3,8 @@
 // checks or the sampled clouds. The same bytes also go through the geodetic fiducial reader.
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag_dataset.hpp"
+#include "recording/bag_reader.hpp"
+#include "input/bag_dataset.hpp"
 
 namespace {
 
@@ -42,7 +42,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   const std::filesystem::path path = insalign::fuzz::scratch_file(".bag", data, size);
   load_everything(path);
   try {
-    const insalign::io::LocalEnu enu({48.1, 11.5, 500.0});
+    const insalign::LocalEnu enu({48.1, 11.5, 500.0});
     (void)insalign::io::read_bag_fiducials(path, enu, insalign::Vec3::Zero());
   } catch (const insalign::InputError&) {
   }

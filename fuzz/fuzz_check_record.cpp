@@ -4,7 +4,7 @@
 
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/check_outputs.hpp"
+#include "report/check_outputs.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

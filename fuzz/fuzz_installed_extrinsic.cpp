@@ -4,7 +4,7 @@
 
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/installed_extrinsic.hpp"
+#include "files/installed_extrinsic.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string text(reinterpret_cast<const char*>(data), size);

@@ -2,7 +2,7 @@
 // unbounded allocation or sanitizer report.
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/bag/mcap.hpp"
+#include "recording/mcap.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::filesystem::path path = insalign::fuzz::scratch_file(".mcap", data, size);

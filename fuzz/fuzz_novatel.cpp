@@ -4,7 +4,7 @@
 #include <string_view>
 
 #include "core/errors.hpp"
-#include "io/ins/novatel_ascii.hpp"
+#include "inslog/novatel_ascii.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view text(reinterpret_cast<const char*>(data), size);

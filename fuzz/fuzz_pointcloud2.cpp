@@ -4,9 +4,9 @@
 #include <string>
 
 #include "core/errors.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/messages.hpp"
-#include "io/bag/pointcloud2.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/messages.hpp"
+#include "recording/pointcloud2.hpp"
 
 namespace {
 

@@ -6,7 +6,7 @@
 
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/pose_source.hpp"
+#include "inslog/pose_source.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size == 0) return 0;

@@ -2,7 +2,7 @@
 // is opened as a ROS 1 bag, its topics listed and every message read.
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/bag/ros1_bag.hpp"
+#include "recording/ros1_bag.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   namespace bag = insalign::io::bag;

@@ -8,7 +8,7 @@
 
 #include "core/errors.hpp"
 #include "fuzz_common.hpp"
-#include "io/bag/rosbag2.hpp"
+#include "recording/rosbag2.hpp"
 
 namespace {
 

@@ -6,7 +6,7 @@
 #include <string_view>
 
 #include "core/errors.hpp"
-#include "io/ins/text_export.hpp"
+#include "inslog/text_export.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string_view input(reinterpret_cast<const char*>(data), size);

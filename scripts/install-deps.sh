@@ -9,6 +9,8 @@ packages=(
   libbz2-dev liblz4-dev libzstd-dev libsqlite3-dev libgeographiclib-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   chromium  # headless, for the report rendering test
+  libpq-dev  # fleets: the PostgreSQL history database
+  slurm-wlm munge postgresql  # fleets: the test suite runs a single-node Slurm cluster and a PostgreSQL server
 )
 missing=()
 for p in "${packages[@]}"; do

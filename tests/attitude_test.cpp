@@ -1,4 +1,4 @@
-// The attitude conventions of io/ins/attitude.hpp against vehicle axes built from first principles
+// The attitude conventions of inslog/attitude.hpp against vehicle axes built from first principles
 // (ins_log_test_util.hpp): heading, then pitch about the right axis (nose up), then roll about the
 // forward axis (right side down).
 #include <gtest/gtest.h>
@@ -6,7 +6,7 @@
 #include <random>
 
 #include "ins_log_test_util.hpp"
-#include "io/ins/attitude.hpp"
+#include "inslog/attitude.hpp"
 
 namespace insalign::io {
 namespace {

@@ -9,11 +9,11 @@
 #include <string>
 
 #include "core/errors.hpp"
-#include "io/dataset.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/fiducials.hpp"
-#include "io/pcd.hpp"
-#include "io/poses.hpp"
+#include "input/dataset.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/fiducials.hpp"
+#include "pointcloud/pcd.hpp"
+#include "files/poses.hpp"
 
 namespace insalign::io {
 namespace {

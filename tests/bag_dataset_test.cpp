@@ -1,4 +1,4 @@
-// Recordings to Datasets (io/bag_dataset.hpp): topic choice, every INS source type from bags
+// Recordings to Datasets (input/bag_dataset.hpp): topic choice, every INS source type from bags
 // written in-process (the vehicle drives north or east, so the heading of `ins` is known), TF
 // chains, NavSatFix + Imu pairing, clock gaps, lazy loading, and the ecosystem fixtures of
 // tests/data/bags (README.md there lists what they hold).
@@ -20,15 +20,15 @@
 
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
-#include "io/bag/bag_writer.hpp"
-#include "io/bag/lz4_frame.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/messages.hpp"
-#include "io/bag/pointcloud2.hpp"
-#include "io/bag_dataset.hpp"
-#include "io/bag_topics.hpp"
-#include "io/ins/attitude.hpp"
-#include "io/ins/geodesy.hpp"
+#include "recording/bag_writer.hpp"
+#include "recording/lz4_frame.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/messages.hpp"
+#include "recording/pointcloud2.hpp"
+#include "input/bag_dataset.hpp"
+#include "recording/bag_topics.hpp"
+#include "inslog/attitude.hpp"
+#include "core/geodesy.hpp"
 
 namespace insalign::io {
 namespace {
@@ -36,7 +36,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace bag;
 
-const fs::path kFixtures = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kFixtures = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 constexpr double kT0 = 1700000000.0;
 constexpr double kSpeed = 5.0;  // m/s
 constexpr double kPi = 3.14159265358979323846;

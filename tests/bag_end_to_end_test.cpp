@@ -1,5 +1,5 @@
 // The same simulated drive as a PCD folder (as `insalign simulate` writes it) and as each recording
-// format (cli/sim_bag_export.hpp), with each LiDAR time convention and each INS message type
+// format (sim/export/sim_bag_export.hpp), with each LiDAR time convention and each INS message type
 // across the runs: the Datasets must hold the same sweeps and, up to the message type's `ins`
 // frame, the same poses; calibrating from the PCD folder and from a recording gives the same answer.
 #include <gtest/gtest.h>
@@ -12,17 +12,17 @@
 #include <string>
 #include <vector>
 
-#include "cli/sim_bag_export.hpp"
+#include "sim/export/sim_bag_export.hpp"
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
-#include "io/bag_dataset.hpp"
-#include "io/dataset.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/fiducials.hpp"
-#include "io/pcd.hpp"
-#include "io/poses.hpp"
-#include "io/read_file.hpp"
+#include "input/bag_dataset.hpp"
+#include "input/dataset.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/fiducials.hpp"
+#include "pointcloud/pcd.hpp"
+#include "files/poses.hpp"
+#include "files/read_file.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign {

@@ -15,10 +15,10 @@
 #include <vector>
 
 #include "core/errors.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/messages.hpp"
-#include "io/bag/pointcloud2.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/messages.hpp"
+#include "recording/pointcloud2.hpp"
 
 namespace insalign::io::bag {
 namespace {
@@ -26,7 +26,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // The fixtures live beside this file, in the source tree (no data outside the repository).
-const fs::path kDir = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kDir = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 
 constexpr std::int64_t kT0Ns = 1'700'000'000'000'000'000;
 constexpr double kXyzTol = 1e-6, kTimeTol = 1e-6, kDegTol = 1e-9, kMetreTol = 1e-6, kQuatTol = 1e-12;

@@ -12,11 +12,11 @@
 
 #include "cli_test_util.hpp"
 #include "core/geometry.hpp"
-#include "io/bag/bag_writer.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag_topics.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/read_file.hpp"
+#include "recording/bag_writer.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/bag_topics.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign {
 namespace {
@@ -184,7 +184,7 @@ TEST(CheckCli, DriveThatBarelyMovesIsInconclusiveWithWhy) {
 }
 
 TEST(CheckCli, RecordingWithoutInsAndBadExtrinsicsExitTwo) {
-  const fs::path bag = fs::path(INSALIGN_SOURCE_DIR) / "tests" / "data" / "bags" / "ros1_hesai_inspva.bag";
+  const fs::path bag = fs::path(INSALIGN_TEST_DATA_DIR) / "bags" / "ros1_hesai_inspva.bag";
   const fs::path out = insalign::testing::fresh_dir("check_", "noins");
   // The recording rewritten without its INS topics.
   const auto reader = io::bag::open_bag(bag);

@@ -25,14 +25,14 @@
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag/bag_writer.hpp"
-#include "io/bag_topics.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/formats.hpp"
-#include "io/input_info.hpp"
-#include "io/input_source.hpp"
-#include "io/read_file.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/bag_writer.hpp"
+#include "recording/bag_topics.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/formats.hpp"
+#include "input/input_info.hpp"
+#include "input/input_source.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign {
 namespace {
@@ -158,7 +158,7 @@ TEST(CliInputs, KittiRawDriveCalibratesWithinTheBounds) {
 // Through the library: a fixture written by python3-rosbag with two drivers, named in what is read.
 TEST(CliInputs, EachLidarOfARecordingSaysItsTimeConvention) {
   io::InputSpec spec;
-  spec.bag = fs::path(__FILE__).parent_path() / "data" / "bags" / "ros1_ouster_livox_tf_lz4.bag";
+  spec.bag = fs::path(INSALIGN_TEST_DATA_DIR) / "bags" / "ros1_ouster_livox_tf_lz4.bag";
   spec.lidar_topics = {"/ouster/points", "/livox/lidar"};
   const io::LoadedInput input = io::load_input(spec);
   ASSERT_EQ(input.reports.size(), 2u);

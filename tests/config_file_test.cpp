@@ -6,9 +6,9 @@
 #include <set>
 #include <sstream>
 
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/errors.hpp"
-#include "io/config_file.hpp"
+#include "files/config_file.hpp"
 
 namespace insalign {
 namespace {

@@ -1,6 +1,6 @@
 // load_dataset, summarize_drive and `insalign info`, on the real sample and on synthetic folders.
 #include "cli_test_util.hpp"
-#include "io/dataset.hpp"
+#include "input/dataset.hpp"
 
 #include <gtest/gtest.h>
 #include <sys/wait.h>
@@ -14,10 +14,10 @@
 #include <thread>
 
 #include "core/errors.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/fiducials.hpp"
-#include "io/pcd.hpp"
-#include "io/poses.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/fiducials.hpp"
+#include "pointcloud/pcd.hpp"
+#include "files/poses.hpp"
 
 namespace insalign::io {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 
 #include "core/geometry.hpp"
-#include "io/extrinsic_json.hpp"
+#include "files/extrinsic_json.hpp"
 
 namespace insalign {
 namespace {

@@ -1,5 +1,5 @@
 // OpenCalib extrinsic JSON: the real file, exact round trips.
-#include "io/extrinsic_json.hpp"
+#include "files/extrinsic_json.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

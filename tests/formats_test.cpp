@@ -7,7 +7,7 @@
 #include <unistd.h>
 
 #include "core/errors.hpp"
-#include "io/formats.hpp"
+#include "files/formats.hpp"
 
 namespace insalign::io {
 namespace {

@@ -1,4 +1,4 @@
-// The local ENU frame (io/ins/geodesy.hpp, GeographicLib) against published values and against a
+// The local ENU frame (core/geodesy.hpp, GeographicLib) against published values and against a
 // direct WGS-84 ECEF computation written here.
 #include <gtest/gtest.h>
 
@@ -7,7 +7,7 @@
 #include <random>
 #include <stdexcept>
 
-#include "io/ins/geodesy.hpp"
+#include "core/geodesy.hpp"
 
 namespace insalign::io {
 namespace {

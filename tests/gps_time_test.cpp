@@ -2,7 +2,7 @@
 // datetime from 1980-01-06 with the leap count of the date).
 #include <gtest/gtest.h>
 
-#include "io/ins/gps_time.hpp"
+#include "inslog/gps_time.hpp"
 
 namespace insalign::io {
 namespace {

@@ -1,5 +1,5 @@
 // One simulated drive written as the PCD folder with TUM poses (the OpenCalib layout) and as each
-// INS log format (`insalign simulate --poses-format`, cli/sim_ins_export.hpp): every format reads
+// INS log format (`insalign simulate --poses-format`, sim/export/sim_ins_export.hpp): every format reads
 // back to the same sweeps and, up to its `ins` frame, the same poses and fiducials, and calibrates
 // from the simulator's wrong start to the same answer. Then the clock rules on the data: an 18 s
 // GPS-UTC offset is found and corrected, an unexplained gap is an InputError naming both ranges.
@@ -16,21 +16,21 @@
 #include <string>
 #include <vector>
 
-#include "cli/sim_ins_export.hpp"
+#include "sim/export/sim_ins_export.hpp"
 #include "ins_log_test_util.hpp"
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/pipeline.hpp"
-#include "io/fiducials.hpp"
-#include "io/input_source.hpp"
-#include "io/pcd.hpp"
-#include "io/atomic_file.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/ins/gps_time.hpp"
-#include "io/ins/novatel_ascii.hpp"
-#include "io/pose_source.hpp"
-#include "io/poses.hpp"
-#include "io/read_file.hpp"
+#include "files/fiducials.hpp"
+#include "input/input_source.hpp"
+#include "pointcloud/pcd.hpp"
+#include "files/atomic_file.hpp"
+#include "files/extrinsic_json.hpp"
+#include "inslog/gps_time.hpp"
+#include "inslog/novatel_ascii.hpp"
+#include "inslog/pose_source.hpp"
+#include "files/poses.hpp"
+#include "files/read_file.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign {
@@ -328,7 +328,7 @@ TEST(InsFormatsClock, AnUnexplainedGapIsAnInputErrorNamingBothRanges) {
 }
 
 // The attitude conventions end to end: a vehicle driving north, east, south and west, each log
-// written by hand in its own convention (not by io/ins/ins_log_writer), read through --poses'
+// written by hand in its own convention (not by inslog/ins_log_writer), read through --poses'
 // reader. The axis that the format calls forward must point along the travelled path, and its
 // vertical axis up (or down for the z-down frames).
 struct Heading {

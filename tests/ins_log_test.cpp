@@ -3,9 +3,9 @@
 
 #include "core/errors.hpp"
 #include "ins_log_test_util.hpp"
-#include "io/ins/ins_log.hpp"
-#include "io/ins/ins_log_writer.hpp"
-#include "io/poses.hpp"
+#include "inslog/ins_log.hpp"
+#include "inslog/ins_log_writer.hpp"
+#include "files/poses.hpp"
 
 namespace insalign::io {
 namespace {

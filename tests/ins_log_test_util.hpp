@@ -1,5 +1,5 @@
 // Shared by the INS log tests: scratch folders, a drive whose poses are known, and comparisons.
-// The expected values here are built independently of src/io/ins (own rotations, own CRC), so the
+// The expected values here are built independently of src/inslog (own rotations, own CRC), so the
 // readers are checked against a second code path, not against themselves.
 #pragma once
 
@@ -54,7 +54,7 @@ inline std::string novatel_record_line(char lead, const std::string& content) {
   return std::string(1, lead) + content + "*" + crc + "\r\n";
 }
 
-/// Rotation about a unit axis by degrees (the test's own, not io/ins/attitude.cpp's).
+/// Rotation about a unit axis by degrees (the test's own, not inslog/attitude.cpp's).
 inline Mat3 axis_rot(int axis, double deg) {
   const double a = deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
   Mat3 R = Mat3::Identity();

@@ -6,11 +6,11 @@
 
 #include "cli_test_util.hpp"
 #include "core/errors.hpp"
-#include "io/atomic_file.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/formats.hpp"
-#include "io/installed_extrinsic.hpp"
-#include "io/read_file.hpp"
+#include "files/atomic_file.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/formats.hpp"
+#include "files/installed_extrinsic.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::io {
 namespace {

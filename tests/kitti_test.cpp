@@ -10,11 +10,11 @@
 
 #include "core/errors.hpp"
 #include "ins_log_test_util.hpp"
-#include "io/formats.hpp"
-#include "io/ins/gps_time.hpp"
-#include "io/ins/ins_log.hpp"
-#include "io/ins/ins_log_writer.hpp"
-#include "io/ins/kitti.hpp"
+#include "files/formats.hpp"
+#include "inslog/gps_time.hpp"
+#include "inslog/ins_log.hpp"
+#include "inslog/ins_log_writer.hpp"
+#include "inslog/kitti.hpp"
 #include "sim/simulate.hpp"
 
 namespace insalign::io {

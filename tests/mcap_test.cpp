@@ -1,6 +1,6 @@
 // MCAP reader and writer: the real rosbag2 recordings, round trips in every compression, files
 // cut off mid-recording, corruption of every kind the reader must name.
-#include "io/bag/mcap.hpp"
+#include "recording/mcap.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -143,7 +143,7 @@ TEST(Mcap, RealCdrTestRecording) {
 }
 
 // Files written by @mcap/core (tests/fixtures/bags/make_mcap.mjs; facts in out/mcap_summary.json).
-const fs::path kFixtureDir = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kFixtureDir = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 
 TEST(Mcap, IndependentWriterZstdAndLz4) {
   for (const char* name : {"mcap_hesai_ouster_zstd.mcap", "mcap_hesai_ouster_lz4.mcap"}) {

@@ -8,7 +8,7 @@
 #include <random>
 
 #include "core/motion_check.hpp"
-#include "io/poses.hpp"
+#include "files/poses.hpp"
 
 namespace insalign {
 namespace {

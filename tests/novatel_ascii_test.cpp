@@ -7,10 +7,10 @@
 
 #include "core/errors.hpp"
 #include "ins_log_test_util.hpp"
-#include "io/ins/gps_time.hpp"
-#include "io/ins/ins_log.hpp"
-#include "io/ins/ins_log_writer.hpp"
-#include "io/ins/novatel_ascii.hpp"
+#include "inslog/gps_time.hpp"
+#include "inslog/ins_log.hpp"
+#include "inslog/ins_log_writer.hpp"
+#include "inslog/novatel_ascii.hpp"
 
 namespace insalign::io {
 namespace {

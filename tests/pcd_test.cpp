@@ -1,5 +1,5 @@
 // PCD reader and writer: the real OpenCalib sweeps, every encoding, odd layouts.
-#include "io/pcd.hpp"
+#include "pointcloud/pcd.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

@@ -1,7 +1,7 @@
 // sensor_msgs/PointCloud2 -> Sweep: every driver's time convention on synthetic clouds with known
 // times, odd layouts (padding, count 3, height 2 with row padding, other datatypes), the errors,
 // speed, and the clouds of tests/data/bags written by python3-rosbag and @mcap/core.
-#include "io/bag/pointcloud2.hpp"
+#include "recording/pointcloud2.hpp"
 
 #include <gtest/gtest.h>
 
@@ -15,9 +15,9 @@
 #include <random>
 
 #include "core/errors.hpp"
-#include "io/bag/mcap.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/ros1_bag.hpp"
+#include "recording/mcap.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/ros1_bag.hpp"
 
 namespace insalign::io::bag {
 namespace {
@@ -389,7 +389,7 @@ TEST(PointCloud2, DecodesA120kPointCloudInWellUnder5Ms) {
 
 // ------------------------------------------------------------ clouds written by other writers
 
-const fs::path kFixtures = fs::path(__FILE__).parent_path() / "data" / "bags";
+const fs::path kFixtures = fs::path(INSALIGN_TEST_DATA_DIR) / "bags";
 
 struct SweepFacts {
   std::size_t points;

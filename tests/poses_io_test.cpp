@@ -1,5 +1,5 @@
 // Pose files (OpenCalib and TUM), frame-name times and fiducial files.
-#include "io/poses.hpp"
+#include "files/poses.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -9,7 +9,7 @@
 #include <random>
 
 #include "core/errors.hpp"
-#include "io/fiducials.hpp"
+#include "files/fiducials.hpp"
 
 namespace insalign::io {
 namespace {

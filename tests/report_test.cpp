@@ -10,8 +10,8 @@
 #include <set>
 #include <sstream>
 
-#include "io/render.hpp"
-#include "io/report.hpp"
+#include "report/render.hpp"
+#include "report/report.hpp"
 
 namespace insalign::io {
 namespace {

@@ -19,9 +19,9 @@
 
 #include "cli_test_util.hpp"
 #include "core/geometry.hpp"
-#include "io/bag_topics.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/read_file.hpp"
+#include "recording/bag_topics.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign {
 namespace {

@@ -13,8 +13,8 @@
 
 #include "core/rig.hpp"
 #include "core/stitch.hpp"
-#include "io/read_file.hpp"
-#include "io/rig_outputs.hpp"
+#include "files/read_file.hpp"
+#include "report/rig_outputs.hpp"
 #include "mover_score.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"

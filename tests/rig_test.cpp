@@ -14,9 +14,9 @@
 
 #include "core/errors.hpp"
 #include "core/rig.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/read_file.hpp"
-#include "io/rig_outputs.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/read_file.hpp"
+#include "report/rig_outputs.hpp"
 #include "test_world.hpp"
 
 namespace insalign {

@@ -1,6 +1,6 @@
 // ROS 1 bag v2.0: the real rosbag-written bags, write/read round trips in each compression, and
 // broken bags (cut off, corrupt chunk data, unknown compression).
-#include "io/bag/ros1_bag.hpp"
+#include "recording/ros1_bag.hpp"
 
 #include <gtest/gtest.h>
 #include <unistd.h>

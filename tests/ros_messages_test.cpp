@@ -14,10 +14,10 @@
 #include <sstream>
 
 #include "core/errors.hpp"
-#include "io/bag/message_definitions.hpp"
-#include "io/bag/messages.hpp"
-#include "io/bag/ros_serialization.hpp"
-#include "io/ins/attitude.hpp"
+#include "recording/message_definitions.hpp"
+#include "recording/messages.hpp"
+#include "recording/ros_serialization.hpp"
+#include "inslog/attitude.hpp"
 
 namespace insalign::io::bag {
 namespace {

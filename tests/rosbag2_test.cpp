@@ -1,6 +1,6 @@
 // rosbag2 storage: the real bags written by `ros2 bag` (sqlite3 of every schema, split folders,
 // MCAP folders), the writer's round trip, and the ways a bag can be broken.
-#include "io/bag/rosbag2.hpp"
+#include "recording/rosbag2.hpp"
 
 #include <gtest/gtest.h>
 #include <sqlite3.h>
@@ -13,8 +13,8 @@
 #include <thread>
 
 #include "core/errors.hpp"
-#include "io/bag/bag_reader.hpp"
-#include "io/bag/bag_writer.hpp"
+#include "recording/bag_reader.hpp"
+#include "recording/bag_writer.hpp"
 
 namespace insalign::io::bag {
 namespace {

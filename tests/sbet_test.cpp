@@ -6,10 +6,10 @@
 
 #include "core/errors.hpp"
 #include "ins_log_test_util.hpp"
-#include "io/ins/gps_time.hpp"
-#include "io/ins/ins_log.hpp"
-#include "io/ins/ins_log_writer.hpp"
-#include "io/ins/sbet.hpp"
+#include "inslog/gps_time.hpp"
+#include "inslog/ins_log.hpp"
+#include "inslog/ins_log_writer.hpp"
+#include "inslog/sbet.hpp"
 
 namespace insalign::io {
 namespace {

@@ -6,7 +6,7 @@
 #include <cmath>
 #include <vector>
 
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "sim/ins_error.hpp"
 #include "sim/simulate.hpp"
 

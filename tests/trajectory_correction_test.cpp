@@ -10,7 +10,7 @@
 #include <filesystem>
 
 #include "core/pipeline.hpp"
-#include "io/poses.hpp"
+#include "files/poses.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 

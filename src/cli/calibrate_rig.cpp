@@ -1,5 +1,5 @@
 // insalign calibrate with several LiDARs: one FrameStore per LiDAR, the rig pipeline
-// (core/rig.hpp), the rig outputs (io/rig_outputs.hpp) and the terminal summary.
+// (core/rig.hpp), the rig outputs (report/rig_outputs.hpp) and the terminal summary.
 #include "cli/calibrate_rig.hpp"
 
 #include <fmt/core.h>
@@ -8,8 +8,8 @@
 #include "cli/commands.hpp"
 #include "core/errors.hpp"
 #include "core/rig.hpp"
-#include "io/atomic_file.hpp"
-#include "io/rig_outputs.hpp"
+#include "files/atomic_file.hpp"
+#include "report/rig_outputs.hpp"
 
 namespace insalign::cli {
 namespace {
@@ -35,13 +35,15 @@ int calibrate_rig(const io::LoadedInput& input, const PipelineConfig& config, co
   ProgressBar bar(options.verbosity);
   // Each LiDAR's report pictures need only its final extrinsic: drawn beside the repeatability study.
   std::vector<std::optional<io::LidarReportDrawing>> drawn(stores.size());
-  const RigBeside draw = [&](std::size_t l, const CalibrationResult& r) { drawn[l] = io::draw_lidar_report(r, stores[l]); };
+  const RigBeside draw = [&](std::size_t l, const CalibrationResult& r) { drawn[l] = io::draw_lidar_report(r, stores[l], options.viewer, stores.size());
+  };
   const RigResult rig = run_rig_calibration(stores, input.lidar_names, config, bar.callback(),
                                             options.no_report ? nullptr : draw);
   const double peak_mb = peak_rss_mb();
   for (io::RunInfo& run : runs) run.peak_memory_mb = peak_mb;
   io::RigOutputOptions out;
   out.report = !options.no_report;
+  out.viewer = options.viewer;
   io::write_rig_outputs(options.out_dir, rig, stores, runs, config, out, [&](double f) { bar.update("outputs", f); },
                         std::move(drawn));
   bar.finish();

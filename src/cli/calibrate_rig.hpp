@@ -7,7 +7,8 @@
 
 #include "cli/progress.hpp"
 #include "core/pipeline.hpp"
-#include "io/input_source.hpp"
+#include "input/input_source.hpp"
+#include "report/viewer.hpp"
 
 namespace insalign::cli {
 
@@ -15,6 +16,7 @@ struct RigRunOptions {
   std::filesystem::path out_dir;
   bool no_report = false;
   Verbosity verbosity = Verbosity::kNormal;
+  io::ViewerConfig viewer;  ///< the reports' 3D views (config report.*)
 };
 
 /// Runs the rig calibration and writes its outputs; returns the exit code (CONVENTIONS.md).

@@ -11,13 +11,13 @@
 #include "cli/commands.hpp"
 #include "cli/input_options.hpp"
 #include "cli/progress.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/pipeline.hpp"
-#include "io/atomic_file.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/formats.hpp"
-#include "io/input_info.hpp"
-#include "io/result_outputs.hpp"
+#include "files/atomic_file.hpp"
+#include "files/extrinsic_json.hpp"
+#include "files/formats.hpp"
+#include "input/input_info.hpp"
+#include "report/result_outputs.hpp"
 
 namespace insalign::cli {
 namespace {
@@ -55,7 +55,8 @@ Verbosity verbosity(const CalibrateOptions& o) {
 
 // One LiDAR: the pipeline, then every output; extrinsic.json last (its presence means the whole
 // result is there).
-int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const PipelineConfig& config) {
+int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const PipelineConfig& config,
+                  const io::ViewerConfig& viewer) {
   const std::filesystem::path out_dir = o.out;
   io::RunInfo run;
   run.load = input.reports.front();
@@ -63,10 +64,7 @@ int calibrate_one(const CalibrateOptions& o, const io::LoadedInput& input, const
   const FrameStore store = make_frame_store(input.lidars.front(), config);
   // The report's pictures need only the final extrinsic: drawn beside the repeatability study.
   std::optional<io::ReportImages> images;
-  const BesideRepeatability draw = [&](const CalibrationResult& r) {
-    const std::vector<std::size_t> frames = io::report_frames(store, r);
-    images = io::draw_report_images(io::kReportMaps, [&](std::size_t i) { return io::report_map(r, store, frames, i); });
-  };
+  const BesideRepeatability draw = [&](const CalibrationResult& r) { images = io::report_images(r, store, viewer); };
   const CalibrationResult result = run_calibration(store, config, bar.callback(), o.no_report ? nullptr : draw);
 
   run.format_files = io::write_all_formats(out_dir, result.T_ins_lidar);  // calib_imu_to_velo.txt among them
@@ -95,8 +93,8 @@ int run_calibrate(const CalibrateOptions& o) {
     for (const io::LoadReport& r : input.reports) fmt::print(stderr, "{}", io::describe_load(r));
   }
   io::ensure_writable_dir(o.out);
-  if (input.lidars.size() > 1) return calibrate_rig(input, config, {o.out, o.no_report, verbosity(o)});
-  return calibrate_one(o, input, config);
+  if (input.lidars.size() > 1) return calibrate_rig(input, config, {o.out, o.no_report, verbosity(o), tool.report});
+  return calibrate_one(o, input, config, tool.report);
 }
 
 }  // namespace

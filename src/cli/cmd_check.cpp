@@ -9,13 +9,13 @@
 
 #include "cli/commands.hpp"
 #include "cli/input_options.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 #include "core/check_run.hpp"
 #include "core/errors.hpp"
-#include "io/atomic_file.hpp"
-#include "io/check_outputs.hpp"
-#include "io/input_info.hpp"
-#include "io/installed_extrinsic.hpp"
+#include "files/atomic_file.hpp"
+#include "report/check_outputs.hpp"
+#include "input/input_info.hpp"
+#include "files/installed_extrinsic.hpp"
 
 namespace insalign::cli {
 namespace {

@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "cli/commands.hpp"
-#include "cli/tool_config.hpp"
+#include "tool/tool_config.hpp"
 
 namespace insalign::cli {
 

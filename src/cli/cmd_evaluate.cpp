@@ -9,7 +9,7 @@
 #include "cli/commands.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
-#include "io/extrinsic_json.hpp"
+#include "files/extrinsic_json.hpp"
 
 namespace insalign::cli {
 namespace {

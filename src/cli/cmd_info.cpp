@@ -1,4 +1,4 @@
-// insalign info: what an input holds (io/input_info.hpp), read the way calibrate reads it.
+// insalign info: what an input holds (input/input_info.hpp), read the way calibrate reads it.
 #include <fmt/core.h>
 
 #include <memory>
@@ -6,7 +6,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/input_options.hpp"
-#include "io/input_info.hpp"
+#include "input/input_info.hpp"
 
 namespace insalign::cli {
 

@@ -1,33 +1,24 @@
 // insalign simulate: render a synthetic calibration drive with ground truth into a dataset in the
 // OpenCalib layout (CONVENTIONS.md), frame by frame so memory stays bounded.
 #include <fmt/core.h>
-#include <tbb/parallel_for.h>
-#include <tbb/global_control.h>
-#include <tbb/task_arena.h>
 
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
-#include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "cli/commands.hpp"
 #include "cli/progress.hpp"
-#include "cli/sim_bag_export.hpp"
-#include "cli/sim_ins_export.hpp"
-#include "cli/tool_config.hpp"
 #include "core/errors.hpp"
-#include "io/atomic_file.hpp"
-#include "io/extrinsic_json.hpp"
-#include "io/fiducials.hpp"
-#include "io/pcd.hpp"
-#include "io/poses.hpp"
+#include "files/poses.hpp"
+#include "sim/export/ground_truth.hpp"
+#include "sim/export/pcd_dataset.hpp"
+#include "sim/export/sim_bag_export.hpp"
+#include "sim/export/sim_ins_export.hpp"
 #include "sim/simulate.hpp"
 #include "sim/traffic.hpp"
+#include "tool/tool_config.hpp"
 
 namespace insalign::cli {
 namespace {
@@ -142,163 +133,7 @@ void apply_options(SimulateOptions& o) {
   if (o.frames > 0) c.duration_s = o.frames / c.frame_rate_hz;
 }
 
-const char* scene_name(sim::SceneKind k) { return k == sim::SceneKind::kFeaturePoor ? "feature-poor" : "intersection"; }
-std::string trajectory_name(sim::TrajectoryKind k) {
-  return k == sim::TrajectoryKind::kRecorded ? "recorded" : std::string(enum_name(k));
-}
-
-// installed-extrinsic.json (per LiDAR of a rig: installed-extrinsic-<name>.json): what the car
-// believes, in the extrinsic.json shape `insalign check --extrinsic` reads; the true extrinsic
-// unless --knock moved the mount.
-void write_installed(const sim::World& w, const fs::path& out) {
-  for (const sim::SimLidar& l : w.lidars) {
-    const std::string suffix = w.lidars.size() > 1 ? "-" + l.name : "";
-    nlohmann::json j;
-    j["T_ins_lidar"] = io::transform_to_json(l.T_ins_lidar_installed);
-    j["time_offset_s"] = l.time_offset_s;
-    j["source"] = "insalign simulate: the installed extrinsic (the truth, knocked by --knock)";
-    io::write_file_atomic(out / ("installed-extrinsic" + suffix + ".json"), j.dump(2) + "\n");
-  }
-}
-
-// The INS error's ground truth; only written when it differs from the default RTK-fixed model
-// without events, so a default dataset stays byte for byte what it always was.
-bool has_ins_error_truth(const sim::World& w) {
-  return w.config.ins_error.model != sim::InsErrorModel::kRtkFixed || !w.ins_events.empty();
-}
-
-nlohmann::json ins_error_json(const sim::World& w) {
-  const sim::InsErrorConfig& e = w.config.ins_error;
-  nlohmann::json j;
-  j["model"] = sim::ins_error_model_name(e.model);
-  j["drift_horizontal_m_per_sqrt_s"] = e.drift_horizontal_m_per_sqrt_s;
-  j["drift_vertical_m_per_sqrt_s"] = e.drift_vertical_m_per_sqrt_s;
-  j["drift_heading_deg_per_sqrt_s"] = e.drift_heading_deg_per_sqrt_s;
-  j["events"] = nlohmann::json::array();
-  for (const sim::InsEvent& ev : w.ins_events) {
-    const Vec3 rpy_deg = ev.rpy_error_rad * kDegPerRad;
-    j["events"].push_back({{"kind", sim::ins_event_name(ev.kind)},
-                           {"t_begin_s", ev.t_begin_s},
-                           {"t_end_s", ev.t_end_s},
-                           {"error_m", {ev.error_m.x(), ev.error_m.y(), ev.error_m.z()}},
-                           {"rpy_error_deg", {rpy_deg.x(), rpy_deg.y(), rpy_deg.z()}}});
-  }
-  return j;
-}
-
-const char* mover_kind_name(sim::MoverKind k) {
-  switch (k) {
-    case sim::MoverKind::kCar: return "car";
-    case sim::MoverKind::kVan: return "van";
-    case sim::MoverKind::kCyclist: return "cyclist";
-    case sim::MoverKind::kPedestrian: return "pedestrian";
-  }
-  return "?";
-}
-
-// The movers (written only when traffic was asked for): what, how big, how fast, when.
-nlohmann::json traffic_json(const sim::World& w) {
-  nlohmann::json j;
-  j["vehicles_requested"] = w.config.traffic;
-  j["people_requested"] = w.config.pedestrians;
-  j["movers"] = nlohmann::json::array();
-  for (const sim::Mover& m : w.traffic->movers) {
-    const Vec3 size = 2.0 * m.half_m;
-    j["movers"].push_back({{"kind", mover_kind_name(m.kind)},
-                           {"size_m", {size.x(), size.y(), size.z()}},
-                           {"speed_mps", m.speed_mps},
-                           {"t_begin_s", m.t_start_s},
-                           {"t_end_s", m.t_end_s()},
-                           {"route_length_m", m.route_s_m.back()}});
-  }
-  return j;
-}
-
-nlohmann::json ground_truth_json(const SimulateOptions& o, const sim::World& w, std::size_t points) {
-  const sim::SimConfig& c = w.config;
-  const Iso3& T = w.T_ins_lidar_true;
-  const Eigen::Quaterniond q(T.linear());
-  const Vec3 rpy = rpy_from_rotation(T.linear()) * kDegPerRad;
-  const ExtrinsicError init_err = extrinsic_error(w.T_ins_lidar_init, T);
-  nlohmann::json j;
-  j["T_ins_lidar"] = io::transform_to_json(T);
-  j["translation_m"] = {T.translation().x(), T.translation().y(), T.translation().z()};
-  j["rpy_deg"] = {rpy.x(), rpy.y(), rpy.z()};
-  j["quaternion_wxyz"] = {q.w(), q.x(), q.y(), q.z()};
-  j["time_offset_s"] = w.lidars.front().time_offset_s;  // = c.time_offset_s but in a rig
-  j["ins_height_m"] = w.ins_height_m;
-  j["T_ins_lidar_init"] = io::transform_to_json(w.T_ins_lidar_init);
-  j["T_ins_lidar_installed"] = io::transform_to_json(w.lidars.front().T_ins_lidar_installed);
-  j["knock"] = {{"translation_m", {c.knock(0), c.knock(1), c.knock(2)}}, {"rpy_deg", {c.knock(3), c.knock(4), c.knock(5)}}};
-  j["init_error"] = {{"angle_deg", init_err.angle_deg}, {"dt_norm_m", init_err.dt_norm_m}};
-  j["frames"] = w.frame_count();
-  j["points"] = points;
-  nlohmann::json cfg;
-  cfg["seed"] = c.seed;
-  cfg["scene"] = scene_name(c.scene);
-  cfg["trajectory"] = c.trajectory == sim::TrajectoryKind::kRecorded ? o.trajectory : trajectory_name(c.trajectory);
-  cfg["figure8_loops"] = c.figure8_loops;
-  cfg["speed_kmh"] = c.speed_kmh;
-  cfg["duration_s"] = c.duration_s;
-  cfg["lidar_model"] = c.lidar_model;
-  cfg["azimuth_step_deg"] = c.azimuth_step_deg;
-  cfg["frame_rate_hz"] = c.frame_rate_hz;
-  cfg["range_noise_m"] = c.range_noise_m;
-  cfg["dropout_prob"] = c.dropout_prob;
-  cfg["max_range_m"] = c.max_range_m;
-  cfg["ins_axes"] = c.ins_axes == sim::InsAxes::kYForward ? "y-forward" : "x-forward";
-  cfg["ins_noise_scale"] = c.ins_noise_scale;
-  cfg["time_offset_s"] = c.time_offset_s;
-  cfg["extrinsic_given"] = c.T_ins_lidar.has_value();
-  cfg["init_rot_err_deg"] = c.init_rot_err_deg;
-  cfg["init_trans_err_m"] = c.init_trans_err_m;
-  cfg["n_fiducials"] = c.n_fiducials;
-  cfg["fiducial_noise_m"] = c.fiducial_noise_m;
-  cfg["pcd_encoding"] = o.pcd_encoding;
-  j["config"] = cfg;
-  if (has_ins_error_truth(w)) j["ins_error"] = ins_error_json(w);
-  if (w.config.traffic > 0 || w.config.pedestrians > 0) j["traffic"] = traffic_json(w);
-  if (!c.rig.empty()) {
-    j["config"]["rig"] = c.rig;
-    j["config"]["rig_clock_spread_s"] = c.rig_clock_spread_s;
-  }
-  return j;
-}
-
-std::uintmax_t directory_bytes(const fs::path& dir) {
-  std::uintmax_t total = 0;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) total += e.file_size();
-  return total;
-}
-
-// Where each LiDAR's PCDs go: OUT/lidar for a single LiDAR, OUT/lidar/<name> in a rig (a LiDAR's
-// name is its folder's basename, CONVENTIONS.md).
-bool is_rig(const sim::World& w) { return !w.config.rig.empty(); }
-
-std::vector<fs::path> lidar_dirs(const sim::World& w, const fs::path& out) {
-  if (!is_rig(w)) return {out / "lidar"};
-  std::vector<fs::path> dirs;
-  for (const sim::SimLidar& l : w.lidars) dirs.push_back(out / "lidar" / l.name);
-  return dirs;
-}
-
-// Creates the folders. Stale frames from an earlier run would silently join this dataset: false
-// (with a message) unless --overwrite removes them.
-bool prepare_dirs(const std::vector<fs::path>& dirs, bool overwrite) {
-  for (const fs::path& dir : dirs) {
-    io::ensure_writable_dir(dir);
-    std::size_t stale = 0;
-    for (const auto& e : fs::directory_iterator(dir)) stale += e.path().extension() == ".pcd";
-    if (stale > 0 && !overwrite) {
-      fmt::print(stderr, "error: {} already holds {} PCD files; use an empty --out or pass --overwrite\n", dir.string(), stale);
-      return false;
-    }
-    for (const auto& e : fs::directory_iterator(dir))
-      if (e.path().extension() == ".pcd") fs::remove(e.path());
-  }
-  return true;
-}
+GroundTruthLabels labels(const SimulateOptions& o) { return {o.trajectory, o.pcd_encoding}; }
 
 void print_plan(const SimulateOptions& o, const sim::World& w) {
   std::size_t frames = 0;
@@ -313,87 +148,6 @@ void print_plan(const SimulateOptions& o, const sim::World& w) {
   const std::size_t movers = w.traffic ? w.traffic->movers.size() : 0;
   const int wanted = o.config.traffic + o.config.pedestrians;
   if (wanted > 0) fmt::print(stderr, "traffic: {} of {} movers found room in the lanes and sidewalks\n", movers, wanted);
-}
-
-struct Rendered {  // per LiDAR
-  std::vector<std::vector<double>> t_end_s;
-  std::vector<std::vector<std::string>> names;
-  std::vector<std::size_t> points;
-};
-
-// Every frame of every LiDAR in parallel (each also casts its rays in parallel), written as it
-// is rendered: one sweep per worker in memory.
-Rendered render_all(const sim::World& w, const std::vector<fs::path>& dirs, io::PcdEncoding encoding, ProgressBar& bar) {
-  Rendered r;
-  std::vector<std::pair<std::size_t, std::size_t>> jobs;  // (lidar, frame)
-  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
-    const std::size_t n = w.lidars[i].frame_times_s.size();
-    r.t_end_s.emplace_back(n);
-    r.names.emplace_back(n);
-    for (std::size_t k = 0; k < n; ++k) jobs.emplace_back(i, k);
-  }
-  std::vector<std::atomic<std::size_t>> points(w.lidars.size());
-  const std::size_t n = jobs.size();
-  std::atomic<std::size_t> done{0};
-  // More workers than cores: a worker blocked in the atomic write's fsync leaves its core to
-  // another that is ray casting. TBB caps its workers at the core count unless told otherwise.
-  const int threads = static_cast<int>(3 * std::max(1u, std::thread::hardware_concurrency()));
-  const tbb::global_control allow_threads(tbb::global_control::max_allowed_parallelism, threads);
-  tbb::task_arena arena(threads);
-  arena.execute([&] {
-    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t j) {
-      const auto [i, k] = jobs[j];
-      const Sweep sweep = sim::render_lidar_sweep(w, i, k);
-      io::write_pcd(dirs[i] / (sweep.name + ".pcd"), sweep, encoding, io::PcdTimeField::kAbsolute);
-      r.t_end_s[i][k] = sweep.t_end_s;
-      r.names[i][k] = sweep.name;
-      points[i] += sweep.size();
-      bar.update("frames", static_cast<double>(++done) / static_cast<double>(n));
-    });
-  });
-  bar.finish();
-  for (const auto& p : points) r.points.push_back(p.load());
-  return r;
-}
-
-// A rig's LiDARs in ground_truth.json, by name (the top-level keys stay those of the first).
-nlohmann::json rig_json(const sim::World& w, const Rendered& r) {
-  nlohmann::json j;
-  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
-    const sim::SimLidar& l = w.lidars[i];
-    const Iso3& T = l.T_ins_lidar_true;
-    const Vec3 rpy = rpy_from_rotation(T.linear()) * kDegPerRad;
-    j[l.name] = {{"T_ins_lidar", io::transform_to_json(T)},
-                 {"translation_m", {T.translation().x(), T.translation().y(), T.translation().z()}},
-                 {"rpy_deg", {rpy.x(), rpy.y(), rpy.z()}},
-                 {"time_offset_s", l.time_offset_s},
-                 {"model", l.model.name},
-                 {"mount", l.mount},
-                 {"frame_rate_hz", l.frame_rate_hz},
-                 {"start_azimuth_deg", l.start_azimuth_rad * kDegPerRad},
-                 {"frames", l.frame_times_s.size()},
-                 {"points", r.points[i]},
-                 {"T_ins_lidar_init", io::transform_to_json(l.T_ins_lidar_init)}};
-  }
-  return j;
-}
-
-// Pose files, initial guesses, fiducials and the ground truth. A single LiDAR: poses.txt and
-// init-extrinsic.json as always; a rig: poses-<name>.txt and init-extrinsic-<name>.json each.
-void write_metadata(const SimulateOptions& o, const sim::World& w, const fs::path& out, const Rendered& r) {
-  for (std::size_t i = 0; i < w.lidars.size(); ++i) {
-    const std::string suffix = is_rig(w) ? "-" + w.lidars[i].name : "";
-    std::vector<Iso3> T_world_ins;
-    for (const StampedPose& p : sim::frame_poses(w, r.t_end_s[i], i)) T_world_ins.push_back(p.T_world_ins);
-    io::write_opencalib_poses(out / ("poses" + suffix + ".txt"), r.names[i], T_world_ins);
-    io::write_opencalib_extrinsic(out / ("init-extrinsic" + suffix + ".json"), w.lidars[i].T_ins_lidar_init);
-  }
-  io::write_tum_poses(out / "poses_tum.txt", sim::dense_reported_poses(w, 100.0));
-  io::write_fiducials(out / "fiducials.txt", w.fiducials);
-  nlohmann::json gt = ground_truth_json(o, w, r.points.front());
-  if (is_rig(w)) gt["lidars"] = rig_json(w, r);
-  io::write_file_atomic(out / "ground_truth.json", gt.dump(2) + "\n");
-  write_installed(w, out);
 }
 
 void print_summary(const SimulateOptions& o, const sim::World& w, const fs::path& out, const Rendered& r, double elapsed_s) {
@@ -422,7 +176,7 @@ SimInsOptions ins_log_options(const SimulateOptions& o, const sim::World& w, std
   s.format = *parse_poses_format(o.poses_format);
   s.ins_clock_offset_s = o.ins_clock_offset_s;
   s.log.novatel_record = novatel_record(o.novatel_record);
-  s.ground_truth = ground_truth_json(o, w, points);
+  s.ground_truth = ground_truth_json(w, points, labels(o));
   s.ground_truth["config"]["poses_format"] = o.poses_format;
   return s;
 }
@@ -441,7 +195,6 @@ int run_kitti(const SimulateOptions& o, const sim::World& world) {
   const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
   const SimInsResult r = write_sim_kitti_raw(world, ins_log_options(o, world, 0), o.out, o.quiet ? SimInsProgress{} : SimInsProgress(print));
   bar.finish();
-  write_installed(world, o.out);
   fmt::print("wrote a KITTI raw drive of {} frames ({} points) to {} (--kitti-raw {})\n", r.frames, r.points, o.out, r.poses.string());
   print_ins_log(r);
   return kExitOk;
@@ -468,12 +221,11 @@ int run_simulate(SimulateOptions& o) {
     bag.format = *parse_bag_format(o.format);
     bag.lidar_convention = *parse_lidar_convention(o.lidar_convention);
     bag.ins_message = *parse_ins_message(o.ins_message);
-    bag.ground_truth = ground_truth_json(o, world, 0);
+    bag.ground_truth = ground_truth_json(world, 0, labels(o));
     ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
     const auto print = [&bar](std::size_t d, std::size_t n) { bar.update("frames", static_cast<double>(d) / static_cast<double>(n)); };
     const SimBagResult r = write_sim_bag(world, bag, o.out, o.quiet ? SimBagProgress{} : SimBagProgress(print));
     bar.finish();
-    write_installed(world, o.out);
     fmt::print("wrote {} frames ({} points) and {} INS messages to {}; ins = {}\n", r.frames, r.points, r.ins_messages,
                r.bag.string(), r.ins_frame);
     return kExitOk;
@@ -488,14 +240,17 @@ int run_simulate(SimulateOptions& o) {
   const auto start = std::chrono::steady_clock::now();
   // A bar on a terminal; in a log one line per step and a progress line at most every 5 s.
   ProgressBar bar(o.quiet ? Verbosity::kQuiet : Verbosity::kNormal);
-  const Rendered rendered = render_all(world, dirs, encoding, bar);
+  const Rendered rendered = render_all(world, dirs, encoding, [&bar](std::size_t d, std::size_t n) {
+    bar.update("frames", static_cast<double>(d) / static_cast<double>(n));
+  });
+  bar.finish();
   if (is_ins_log_format(poses_format)) {  // the INS log and its side files instead of the pose files
     const SimInsResult r = write_sim_ins_log(world, ins_log_options(o, world, rendered.points.front()), out);
     print_summary(o, world, out, rendered, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     print_ins_log(r);
     return kExitOk;
   }
-  write_metadata(o, world, out, rendered);
+  write_metadata(world, out, rendered, labels(o));
   const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   print_summary(o, world, out, rendered, elapsed);
   return kExitOk;
@@ -536,7 +291,7 @@ void add_drive_options(CLI::App* sub, SimulateOptions* o) {
       ->capture_default_str();
   sub->add_option("--knock", o->knock,
                   "the mount moved by \"dx dy dz droll dpitch dyaw\" (m, deg, INS frame) since installed-extrinsic.json was "
-                  "right: the truth is the installed extrinsic knocked");
+                  "right (PCD folder layout): the truth is the installed extrinsic knocked");
   sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
   sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
       ->check(CLI::Range(0.0, 180.0))

@@ -32,5 +32,6 @@ Command make_simulate_command();
 Command make_evaluate_command();
 Command make_stitch_command();
 Command make_config_command();
+Command make_fleet_command();
 
 }  // namespace insalign::cli

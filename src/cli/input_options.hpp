@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "cli/tool_config.hpp"
-#include "io/input_source.hpp"
+#include "tool/tool_config.hpp"
+#include "input/input_source.hpp"
 
 namespace insalign::cli {
 

@@ -1,5 +1,5 @@
 // The simulator's configuration as YAML and the command line see it: one name table per enum
-// and the field list of SimConfig (src/io/config_file.hpp walks it).
+// and the field list of SimConfig (src/files/config_file.hpp walks it).
 #pragma once
 
 #include <array>

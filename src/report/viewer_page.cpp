@@ -1,0 +1,192 @@
+// The viewer's files: viewer.js (compiled in from viewer.js), viewer_data.js (the scene: a JSON
+// header and the quantised points in base64) and the HTML snippet that loads them.
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "files/atomic_file.hpp"
+#include "report/viewer.hpp"
+
+namespace insalign::io {
+
+extern const char kViewerJs[];  // viewer_js.cpp, generated from viewer.js
+
+namespace {
+
+using nlohmann::json;
+
+constexpr std::size_t kMaxTrajectoryPoints = 4000;  // a line, not a data set: enough to follow the drive
+
+std::string base64(const std::string& bytes) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((bytes.size() + 2) / 3 * 4);
+  for (std::size_t i = 0; i < bytes.size(); i += 3) {
+    const std::size_t n = std::min<std::size_t>(3, bytes.size() - i);
+    std::uint32_t v = 0;
+    for (std::size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<std::uint8_t>(bytes[i + k]) : 0u);
+    for (std::size_t k = 0; k < 4; ++k) out += k <= n ? kAlphabet[(v >> (18 - 6 * k)) & 63] : '=';
+  }
+  return out;
+}
+
+json vec(const Vec3& p) { return json::array({p.x(), p.y(), p.z()}); }
+
+// The box every placing's points fall in, quantised to 16 bits per axis.
+struct Box {
+  Vec3 min_m = Vec3::Zero(), scale_m = Vec3::Constant(1e-3);
+};
+Box bounding_box(const ViewerScene& scene) {
+  Vec3 lo = Vec3::Constant(std::numeric_limits<double>::infinity()), hi = -lo;
+  for (const auto& points : scene.p_world)
+    for (const Vec3f& p : points) {
+      lo = lo.cwiseMin(p.cast<double>());
+      hi = hi.cwiseMax(p.cast<double>());
+    }
+  Box box;
+  if (!(lo.array() <= hi.array()).all()) return box;
+  box.min_m = lo;
+  box.scale_m = ((hi - lo) / 65535.0).cwiseMax(Vec3::Constant(1e-6));
+  return box;
+}
+
+// Point order grouped by (LiDAR, frame, class): the runs carry those, no bytes per point.
+std::vector<std::uint32_t> run_order(const ViewerScene& s) {
+  std::vector<std::uint32_t> order(s.size());
+  std::iota(order.begin(), order.end(), 0u);
+  const auto key = [&](std::uint32_t i) {
+    return std::tuple(s.lidar.empty() ? 0 : s.lidar[i], s.frame[i],
+                      s.point_class.empty() ? 0 : static_cast<int>(s.point_class[i]));
+  };
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  return order;
+}
+
+json meta_json(const ViewerScene& s, const Box& box, const std::vector<std::uint32_t>& order) {
+  json runs = json::array();
+  for (std::size_t k = 0; k < order.size();) {
+    const std::uint32_t i = order[k];
+    const int lidar = s.lidar.empty() ? 0 : s.lidar[i];
+    const int cls = s.point_class.empty() ? 0 : static_cast<int>(s.point_class[i]);
+    std::size_t n = 0;
+    while (k < order.size() && s.frame[order[k]] == s.frame[i] && (s.lidar.empty() ? 0 : s.lidar[order[k]]) == lidar &&
+           (s.point_class.empty() ? 0 : static_cast<int>(s.point_class[order[k]])) == cls) {
+      ++k;
+      ++n;
+    }
+    runs.push_back({s.frame[i], lidar, cls, n});
+  }
+  json frames_t = json::array(), frames_name = json::array();
+  for (const ViewerFrame& f : s.frames) {
+    frames_t.push_back(f.t_s);
+    frames_name.push_back(f.name);
+  }
+  json trajectory = json::array();
+  const std::size_t step = std::max<std::size_t>(1, s.trajectory_world.size() / kMaxTrajectoryPoints);
+  for (std::size_t i = 0; i < s.trajectory_world.size(); i += step) trajectory.push_back(vec(s.trajectory_world[i]));
+  json fiducials = json::array();
+  for (const Fiducial& f : s.fiducials) fiducials.push_back({{"id", f.id}, {"p_m", vec(f.p_world)}});
+  json sections = json::array();
+  for (const Section& c : s.sections)
+    sections.push_back({{"kind", c.kind}, {"centre_m", vec(c.centre_m)}, {"across", vec(c.across_axis)}, {"up", vec(c.up_axis)},
+                        {"half_across_m", c.half_across_m}, {"half_up_m", c.half_up_m}, {"half_depth_m", c.half_depth_m}});
+  const MapFrame frame = frame_map(s.p_world.empty() ? std::vector<Vec3f>{} : s.p_world.back());
+  return {{"points", s.size()}, {"points_total", s.points_total}, {"extrinsics", s.extrinsic_labels},
+          {"lidars", s.lidar_names}, {"box", {{"min_m", vec(box.min_m)}, {"scale_m", vec(box.scale_m)}}},
+          {"z_colour_m", {frame.colour_z_min_m, frame.colour_z_max_m}}, {"runs", runs}, {"frame_times_s", frames_t},
+          {"frame_names", frames_name}, {"trajectory_m", trajectory}, {"fiducials", fiducials}, {"sections", sections}};
+}
+
+// Each placing's points as uint16 x y z (little-endian) over the box, in run order.
+std::string point_bytes(const ViewerScene& s, const Box& box, const std::vector<std::uint32_t>& order) {
+  std::string out(s.p_world.size() * order.size() * 6, '\0');
+  auto* w = reinterpret_cast<unsigned char*>(out.data());
+  for (const auto& points : s.p_world)
+    for (std::uint32_t i : order)
+      for (int a = 0; a < 3; ++a) {
+        const double q = std::round((points[i][a] - box.min_m[a]) / box.scale_m[a]);
+        const auto v = static_cast<std::uint16_t>(std::clamp(q, 0.0, 65535.0));
+        *w++ = static_cast<unsigned char>(v & 0xff);
+        *w++ = static_cast<unsigned char>(v >> 8);
+      }
+  return out;
+}
+
+constexpr const char* kViewerStyle = R"(
+#insalign-viewer { margin: 10px 0; }
+#insalign-viewer canvas { width: 100%; height: 560px; display: block; border: 1px solid #ccc; background: #fff; outline: none; cursor: grab; }
+#insalign-viewer .viewer-bar { display: flex; flex-wrap: wrap; gap: 6px; margin-bottom: 6px; align-items: center; }
+#insalign-viewer button { font-size: 13px; padding: 3px 9px; }
+#insalign-viewer kbd { font-size: 11px; border: 1px solid #bbb; border-radius: 3px; padding: 0 3px; background: #f4f4f4; }
+#insalign-viewer .viewer-line { font-size: 13px; color: #333; margin-top: 4px; font-family: "DejaVu Sans Mono", monospace; }
+#insalign-viewer .viewer-fallback { background: #fff5e0; border: 1px solid #f0c36d; padding: 6px 12px; }
+#insalign-viewer.viewer-full { position: fixed; inset: 0; z-index: 10; background: #fff; margin: 0; padding: 8px; }
+#insalign-viewer.viewer-full canvas { height: calc(100vh - 110px); }
+)";
+
+std::string snippet(const ViewerScene& s, const std::string& dir) {
+  const std::string data = dir + "/viewer_data.js";
+  std::string h = fmt::format("<style>{}</style>\n<div id=\"insalign-viewer\" data-src=\"{}\" data-fallback=\"{}\">\n",
+                              kViewerStyle, html_escape(data), html_escape(s.fallback));
+  // Shown until viewer.js replaces it: what a browser without JavaScript or WebGL says.
+  h += "<div class=\"viewer-fallback\">The 3D view needs JavaScript and WebGL: " + html_escape(s.fallback) + "</div>\n";
+  h += "<div class=\"viewer-body\" style=\"display:none\">\n<div class=\"viewer-bar\">\n";
+  std::string swap;
+  for (const std::string& l : s.extrinsic_labels) swap += (swap.empty() ? "" : " &harr; ") + html_escape(l);
+  h += "<button data-action=\"swap\"><kbd>B</kbd> " + swap + "</button>\n";
+  h += "<button data-action=\"colour\"><kbd>C</kbd> colour: height / " + std::string(s.lidar_names.size() > 1 ? "LiDAR / " : "") +
+       "frame time</button>\n<button data-action=\"leftout\"><kbd>L</kbd> left-out points</button>\n"
+       "<button data-action=\"overlays\"><kbd>O</kbd> trajectory, fiducials, sections</button>\n";
+  for (std::size_t i = 0; i < s.sections.size() && i < 9; ++i)
+    h += fmt::format("<button data-action=\"section{}\"><kbd>{}</kbd> go to the {} section</button>\n", i, i + 1,
+                     html_escape(s.sections[i].kind));
+  h += "<button data-action=\"home\"><kbd>R</kbd> reset view</button>\n<button data-action=\"smaller\"><kbd>-</kbd></button>"
+       "<button data-action=\"bigger\"><kbd>+</kbd> point size</button>\n<button data-action=\"full\"><kbd>F</kbd> full window</button>\n</div>\n";
+  h += "<canvas tabindex=\"0\" aria-label=\"3D view of the stitched map\"></canvas>\n<div class=\"viewer-line viewer-state\"></div>\n"
+       "<div class=\"viewer-line viewer-info\">Click a point for its coordinates and frame. Drag: orbit; right-drag or "
+       "shift-drag: pan; wheel: zoom.</div>\n";
+  const double every = s.size() ? static_cast<double>(s.points_total) / static_cast<double>(s.size()) : 0.0;
+  h += fmt::format("<div class=\"viewer-line\">{} of {} points shown{} (config report.viewer_points) from {} frames; magenta: moving "
+                   "things left out, orange: frames in a left-out INS stretch; black line: INS trajectory; red crosses: "
+                   "fiducials; boxes: the cross-sections (red wall, blue ground).</div>\n",
+                   s.size(), s.points_total, every > 1.05 ? fmt::format(" (every {:.0f}th)", every) : "", s.frames.size());
+  h += "</div>\n<div id=\"viewer-status\" hidden data-state=\"loading\"></div>\n</div>\n";
+  h += fmt::format("<script src=\"{}\"></script>\n<script src=\"{}/viewer.js\"></script>\n", html_escape(data), html_escape(dir));
+  return h;
+}
+
+}  // namespace
+
+ViewerOutput encode_viewer(const ViewerScene& scene, const std::string& dir) {
+  ViewerOutput out;
+  const Box box = bounding_box(scene);
+  const std::vector<std::uint32_t> order = run_order(scene);
+  std::string data = "window.insalignViewerData = {\"meta\": " + meta_json(scene, box, order).dump() + ",\n\"points\": \"";
+  data += base64(point_bytes(scene, box, order));
+  data += "\"};\n";
+  out.data_bytes = data.size();
+  out.files.emplace_back(dir + "/viewer_data.js", std::move(data));
+  out.files.emplace_back(dir + "/viewer.js", kViewerJs);
+  out.html = snippet(scene, dir);
+  return out;
+}
+
+std::string write_viewer(const std::filesystem::path& folder, const ViewerScene& scene, const std::string& dir) {
+  ViewerOutput out = encode_viewer(scene, dir);
+  ensure_writable_dir(folder / dir);
+  for (const auto& [rel, content] : out.files) write_file_atomic(folder / rel, content);
+  return out.html;
+}
+
+void write_viewer_page(const std::filesystem::path& html_path, const ViewerScene& scene, const std::string& title) {
+  const std::filesystem::path folder = html_path.parent_path().empty() ? "." : html_path.parent_path();
+  const std::string body = write_viewer(folder, scene, html_path.stem().string() + "_files");
+  write_file_atomic(html_path, "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n<title>" + html_escape(title) +
+                                   "</title></head>\n<body style=\"font-family: sans-serif; margin: 16px;\">\n<h1 style=\"font-size: 20px\">" +
+                                   html_escape(title) + "</h1>\n" + body + "</body></html>\n");
+}
+
+}  // namespace insalign::io
