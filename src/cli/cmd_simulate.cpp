@@ -33,6 +33,7 @@ struct SimulateOptions {
   std::string ins_error = "rtk-fixed";
   double ins_drift_m_per_sqrt_s = -1.0;  ///< < 0: the model's default
   std::string extrinsic;
+  std::string knock;  ///< --knock "dx dy dz droll dpitch dyaw"
   std::string pcd_encoding = "binary_compressed";
   std::string format = "opencalib", lidar_convention = "hesai", ins_message = "inspva";  ///< sim_bag_export.hpp
   std::string bag_compression = "default", bag_chunking = "insalign";  ///< sim_bag_export.hpp
@@ -66,6 +67,18 @@ Iso3 parse_extrinsic(const std::string& text) {
   return make_transform(Vec3(v[0], v[1], v[2]), Vec3(v[3], v[4], v[5]));
 }
 
+Vec6 parse_knock(const std::string& text) {
+  std::istringstream in(text);
+  Vec6 v;
+  for (int i = 0; i < 6; ++i) {
+    if (!(in >> v(i)) || !std::isfinite(v(i)))
+      throw UsageError("--knock needs six numbers \"dx dy dz droll dpitch dyaw\" (m, deg), got \"" + text + "\"");
+  }
+  std::string rest;
+  if (in >> rest) throw UsageError("--knock needs exactly six numbers, got \"" + text + "\"");
+  return v;
+}
+
 // Whether an option was on the command line (with --config, the file's value stands otherwise).
 bool given(const SimulateOptions& o, const std::string& name) {
   return o.config_file.empty() || o.app == nullptr || o.app->get_option(name)->count() > 0;
@@ -93,17 +106,14 @@ void check_poses_format(const SimulateOptions& o) {
 
 void apply_trajectory(SimulateOptions& o) {
   sim::SimConfig& c = o.config;
-  if (o.trajectory == "figure8") {
-    c.trajectory = sim::TrajectoryKind::kFigure8;
-  } else if (o.trajectory == "straight") {
-    c.trajectory = sim::TrajectoryKind::kStraight;
-  } else if (o.trajectory == "standstill") {
-    c.trajectory = sim::TrajectoryKind::kStandstill;
+  if (const auto kind = enum_from_name<sim::TrajectoryKind>(o.trajectory)) {
+    c.trajectory = *kind;
   } else {
     c.trajectory = sim::TrajectoryKind::kRecorded;
     if (!fs::is_regular_file(o.trajectory))
       throw UsageError("--trajectory \"" + o.trajectory +
-                       "\" is neither figure8, straight, standstill nor an existing pose file");
+                       "\" is neither figure8, straight, standstill, city-loop, urban-grid, highway, parking-lot nor an "
+                       "existing pose file");
     const io::PoseFile file = io::read_pose_file(o.trajectory);
     bool timed = true;
     for (double t : file.t_s) timed = timed && std::isfinite(t);
@@ -130,6 +140,7 @@ void apply_options(SimulateOptions& o) {
   check_poses_format(o);
   if (given(o, "--trajectory")) apply_trajectory(o);
   if (!o.extrinsic.empty()) c.T_ins_lidar = parse_extrinsic(o.extrinsic);
+  if (!o.knock.empty()) c.knock = parse_knock(o.knock);
   if (o.frames > 0) c.duration_s = o.frames / c.frame_rate_hz;
 }
 
@@ -267,7 +278,9 @@ void add_drive_options(CLI::App* sub, SimulateOptions* o) {
   sub->add_option("--scene", o->scene, "intersection | feature-poor")
       ->check(CLI::IsMember({"intersection", "feature-poor"}))
       ->capture_default_str();
-  sub->add_option("--trajectory", o->trajectory, "figure8 | straight | standstill | a pose FILE to follow")
+  sub->add_option("--trajectory", o->trajectory,
+                  "figure8 | straight | standstill (calibration drives) | city-loop | urban-grid | highway | parking-lot "
+                  "(ordinary drives: stops, turns, 180 s unless --duration-s) | a pose FILE to follow")
       ->capture_default_str();
   sub->add_option("--loops", c.figure8_loops, "figure-8 loops")->check(CLI::Range(1, 100))->capture_default_str();
   auto* frames = sub->add_option("--frames", o->frames, "number of frames (truncates the drive)")
@@ -286,6 +299,13 @@ void add_drive_options(CLI::App* sub, SimulateOptions* o) {
       ->check(CLI::Range(0, 500))
       ->capture_default_str();
   sub->add_option("--fiducials", c.n_fiducials, "surveyed ground points")->check(CLI::Range(0, 1000))->capture_default_str();
+  sub->add_option("--ordinary-speed-kmh", c.ordinary_speed_kmh,
+                  "ordinary drives' cruise speed (0: the kind's own: city 30, highway 90, parking 10)")
+      ->check(CLI::Range(0.0, 150.0))
+      ->capture_default_str();
+  sub->add_option("--knock", o->knock,
+                  "the mount moved by \"dx dy dz droll dpitch dyaw\" (m, deg, INS frame) since installed-extrinsic.json was "
+                  "right (PCD folder layout): the truth is the installed extrinsic knocked");
   sub->add_option("--extrinsic", o->extrinsic, "true T_ins_lidar \"x y z roll pitch yaw\" (m, deg ZYX); default random roof mount");
   sub->add_option("--init-rot-err-deg", c.init_rot_err_deg, "rotation error of init-extrinsic.json")
       ->check(CLI::Range(0.0, 180.0))

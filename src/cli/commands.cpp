@@ -24,7 +24,7 @@ int run_guarded(const std::function<int()>& run) {
 }
 
 std::vector<Command> all_commands() {
-  return {make_simulate_command(), make_calibrate_command(), make_evaluate_command(), make_info_command(),
+  return {make_simulate_command(), make_calibrate_command(), make_check_command(), make_evaluate_command(), make_info_command(),
           make_stitch_command(), make_config_command(), make_fleet_command()};
 }
 

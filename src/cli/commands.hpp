@@ -11,7 +11,8 @@ namespace insalign::cli {
 constexpr int kExitOk = 0;
 constexpr int kExitOther = 1;
 constexpr int kExitUsage = 2;         ///< bad usage or bad input
-constexpr int kExitUnobservable = 3;  ///< the data cannot determine the extrinsic
+constexpr int kExitUnobservable = 3;  ///< the data cannot determine the extrinsic (check: inconclusive)
+constexpr int kExitRecalibrate = 4;  ///< check: the installed extrinsic needs recalibration
 
 struct Command {
   std::function<CLI::App*(CLI::App&)> setup;  ///< adds the subcommand and its options
@@ -26,6 +27,7 @@ std::vector<Command> all_commands();
 // One factory per subcommand (cmd_<name>.cpp).
 Command make_info_command();
 Command make_calibrate_command();
+Command make_check_command();
 Command make_simulate_command();
 Command make_evaluate_command();
 Command make_stitch_command();

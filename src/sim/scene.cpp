@@ -541,7 +541,9 @@ void add_lane_markings(Scene& s, const std::vector<Vec2>& path, double edge_offs
 
 }  // namespace
 
-Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& path_xy, const GroundPlane& ground) {
+Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& path_xy, const GroundPlane& ground,
+                 double density) {
+  auto count = [density](int n) { return static_cast<int>(std::lround(n * std::max(1.0, density))); };
   Scene s;
   s.ground = ground;
   std::vector<Vec2> path = path_xy;
@@ -558,19 +560,19 @@ Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& pa
 
   if (kind == SceneKind::kIntersection) {
     add_curbs(s, layout, rng, first_loop, 4.5);
-    const int buildings = rng.uniform_int(10, 16);
+    const int buildings = count(rng.uniform_int(10, 16));
     for (int i = 0; i < buildings; ++i) add_building(s, layout, rng, first_loop, street_yaw);
-    for (int i = 0, n = rng.uniform_int(4, 8); i < n; ++i) add_wall(s, layout, rng, first_loop, 6.0, 20.0);
-    for (int i = 0, n = rng.uniform_int(10, 20); i < n; ++i) add_pole(s, layout, rng, first_loop, 4.8, 15.0);
-    for (int i = 0, n = rng.uniform_int(6, 12); i < n; ++i) add_car(s, layout, rng, first_loop);
-    for (int i = 0, n = rng.uniform_int(8, 14); i < n; ++i) add_vegetation(s, layout, rng, first_loop, true);
-    for (int i = 0, n = rng.uniform_int(6, 12); i < n; ++i) add_vegetation(s, layout, rng, first_loop, false);
+    for (int i = 0, n = count(rng.uniform_int(4, 8)); i < n; ++i) add_wall(s, layout, rng, first_loop, 6.0, 20.0);
+    for (int i = 0, n = count(rng.uniform_int(10, 20)); i < n; ++i) add_pole(s, layout, rng, first_loop, 4.8, 15.0);
+    for (int i = 0, n = count(rng.uniform_int(6, 12)); i < n; ++i) add_car(s, layout, rng, first_loop);
+    for (int i = 0, n = count(rng.uniform_int(8, 14)); i < n; ++i) add_vegetation(s, layout, rng, first_loop, true);
+    for (int i = 0, n = count(rng.uniform_int(6, 12)); i < n; ++i) add_vegetation(s, layout, rng, first_loop, false);
     add_lane_markings(s, first_loop, 3.2);
   } else {
     // Open lot: a couple of distant walls, a few poles and cars, parking lines.
-    for (int i = 0, n = rng.uniform_int(2, 3); i < n; ++i) add_wall(s, layout, rng, first_loop, 15.0, 35.0);
-    for (int i = 0, n = rng.uniform_int(3, 5); i < n; ++i) add_pole(s, layout, rng, first_loop, 6.0, 25.0);
-    for (int i = 0, n = rng.uniform_int(1, 3); i < n; ++i) add_car(s, layout, rng, first_loop);
+    for (int i = 0, n = count(rng.uniform_int(2, 3)); i < n; ++i) add_wall(s, layout, rng, first_loop, 15.0, 35.0);
+    for (int i = 0, n = count(rng.uniform_int(3, 5)); i < n; ++i) add_pole(s, layout, rng, first_loop, 6.0, 25.0);
+    for (int i = 0, n = count(rng.uniform_int(1, 3)); i < n; ++i) add_car(s, layout, rng, first_loop);
     add_lane_markings(s, first_loop, 3.2);
   }
   s.finalize();

@@ -93,6 +93,8 @@ bool hit_cylinder(const Cylinder& cylinder, const Vec3& origin, const Vec3& dir,
 
 /// A seeded scene around the driven path (world xy samples): nothing closer to the path than the
 /// corridor half-width, buildings not axis-aligned, clutter and markings. Scene kind per config.
-Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& path_xy, const GroundPlane& ground);
+/// density: how many times the usual number of objects (a long path: proportional to its length).
+Scene make_scene(SceneKind kind, std::uint64_t seed, const std::vector<Vec2>& path_xy, const GroundPlane& ground,
+                 double density = 1.0);
 
 }  // namespace insalign::sim

@@ -214,6 +214,20 @@ std::string frame_name(double t_s) {
   return buf;
 }
 
+// Ordinary drives pass far more street than a figure-8: their scene holds as much per metre.
+double scene_density(const Trajectory& trajectory) {
+  if (!trajectory.ordinary()) return 1.0;
+  return std::clamp(static_cast<double>(trajectory.loop_xy().size()) * 0.05 / 250.0, 1.0, 12.0);
+}
+
+// The extrinsic a car believes after a knock (truth = knock applied to it, in the INS frame).
+Iso3 knocked_back(const Iso3& T_true, const Vec6& knock) {
+  Iso3 T = T_true;
+  T.linear() = rotation_from_rpy(knock.tail<3>() * kRadPerDeg).transpose() * T_true.linear();
+  T.translation() = T_true.translation() - knock.head<3>();
+  return T;
+}
+
 World build_world(const SimConfig& config) {
   validate(config);
   World w;
@@ -225,6 +239,8 @@ World build_world(const SimConfig& config) {
 
   w.lidars = config.rig.empty() ? std::vector<SimLidar>{single_lidar(config, w.ins_height_m, T_vehicle_ins, trajectory.duration_s())}
                                 : rig_lidars(config, w.ins_height_m, T_vehicle_ins, trajectory.duration_s());
+  for (SimLidar& l : w.lidars) l.T_ins_lidar_installed = l.T_ins_lidar_true;
+  w.lidars.front().T_ins_lidar_installed = knocked_back(w.lidars.front().T_ins_lidar_true, config.knock);
   const SimLidar& first = w.lidars.front();
   w.lidar = first.model;
   w.T_ins_lidar_true = first.T_ins_lidar_true;
@@ -248,7 +264,8 @@ World build_world(const SimConfig& config) {
   }
   w.poses_true = PoseStream(std::move(truth));
 
-  w.scene = std::make_shared<const Scene>(make_scene(config.scene, config.seed, trajectory.loop_xy(), trajectory.ground()));
+  w.scene = std::make_shared<const Scene>(make_scene(config.scene, config.seed, trajectory.loop_xy(), trajectory.ground(),
+                                                          scene_density(trajectory)));
   w.T_vehicle_ins = T_vehicle_ins;
   w.traffic = std::make_shared<const Traffic>(build_traffic(w, trajectory.loop_xy()));
 

@@ -20,7 +20,9 @@
 namespace insalign::sim {
 
 enum class SceneKind { kIntersection, kFeaturePoor };
-enum class TrajectoryKind { kFigure8, kStraight, kStandstill, kRecorded };
+/// kFigure8 ... kStandstill: calibration drives; kCityLoop ... kParkingLot: the ordinary drives a
+/// fleet makes (sim/drive_plan.hpp), with curves, stops at lights and accelerations.
+enum class TrajectoryKind { kFigure8, kStraight, kStandstill, kRecorded, kCityLoop, kUrbanGrid, kHighway, kParkingLot };
 /// Axes of the INS body frame relative to the vehicle.
 enum class InsAxes {
   kXForward,  ///< ROS REP-103: x forward, y left, z up
@@ -36,6 +38,13 @@ struct SimConfig {
   std::vector<StampedPose> recorded_trajectory;
   int figure8_loops = 3;            ///< kFigure8: loops of the figure-8 (~1000 frames at 15 km/h)
   double speed_kmh = 15.0;          ///< cruise speed (kFigure8, kStraight)
+  /// Ordinary drives' cruise speed; 0: the kind's own (city-loop and urban-grid 30, highway 90,
+  /// parking-lot 10 km/h). Their length is duration_s (0: 180 s).
+  double ordinary_speed_kmh = 0.0;
+  /// The extrinsic the car believes (installed-extrinsic.json) differs from the truth by this
+  /// knock, "dx dy dz droll dpitch dyaw" (m, deg, in the INS frame: truth = knock applied to the
+  /// installed one). Zero: the installed extrinsic is the true one.
+  Vec6 knock = Vec6::Zero();
   double duration_s = 0;            ///< 0 = the trajectory's natural length; >0 truncates
   std::string lidar_model = "pandar64";  ///< "pandar64", "hdl32", "os1-64", "vlp16", "livox-avia"
   double azimuth_step_deg = 0.2;    ///< horizontal resolution (1800 columns per turn)
@@ -82,6 +91,7 @@ struct SimLidar {
   LidarModel model;
   Iso3 T_ins_lidar_true = Iso3::Identity();
   Iso3 T_ins_lidar_init = Iso3::Identity();
+  Iso3 T_ins_lidar_installed = Iso3::Identity();  ///< what the car believes (SimConfig::knock, first LiDAR)
   double time_offset_s = 0.0;       ///< its clock: t_ins = t_lidar + offset
   double frame_rate_hz = 10.0;
   double start_azimuth_rad = 0.0;   ///< spinning: azimuth of a sweep's first column (clockwise spin)

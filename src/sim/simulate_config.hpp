@@ -16,9 +16,11 @@ inline constexpr std::array<std::pair<SceneKind, std::string_view>, 2> kSceneKin
 constexpr auto enum_names(SceneKind) { return std::span(kSceneKindNames); }
 
 /// kRecorded is chosen by giving a pose file (the CLI's --trajectory FILE), not by name.
-inline constexpr std::array<std::pair<TrajectoryKind, std::string_view>, 3> kTrajectoryKindNames{
+inline constexpr std::array<std::pair<TrajectoryKind, std::string_view>, 7> kTrajectoryKindNames{
     {{TrajectoryKind::kFigure8, "figure8"}, {TrajectoryKind::kStraight, "straight"},
-     {TrajectoryKind::kStandstill, "standstill"}}};
+     {TrajectoryKind::kStandstill, "standstill"}, {TrajectoryKind::kCityLoop, "city-loop"},
+     {TrajectoryKind::kUrbanGrid, "urban-grid"}, {TrajectoryKind::kHighway, "highway"},
+     {TrajectoryKind::kParkingLot, "parking-lot"}}};
 constexpr auto enum_names(TrajectoryKind) { return std::span(kTrajectoryKindNames); }
 
 inline constexpr std::array<std::pair<InsAxes, std::string_view>, 2> kInsAxesNames{
@@ -52,7 +54,9 @@ template <class V>
 void visit_config(V& v, SimConfig& c) {
   v("seed", c.seed, "random seed of the scene, noise and mount");
   v("scene", c.scene, "scene: intersection (buildings, poles, cars) or feature-poor");
-  v("trajectory", c.trajectory, "drive: figure8, straight or standstill (a recorded one: simulate --trajectory FILE)");
+  v("trajectory", c.trajectory,
+    "drive: figure8, straight, standstill, or an ordinary drive city-loop, urban-grid, highway, parking-lot (a recorded one: simulate --trajectory FILE)");
+  v("ordinary_speed_kmh", c.ordinary_speed_kmh, "ordinary drives' cruise speed (0: the kind's own: city 30, highway 90, parking 10), km/h");
   v("figure8_loops", c.figure8_loops, "loops of the figure-8");
   v("speed_kmh", c.speed_kmh, "cruise speed, km/h");
   v("duration_s", c.duration_s, "0: the trajectory's natural length; > 0 truncates, s");

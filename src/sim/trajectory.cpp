@@ -64,7 +64,30 @@ Trajectory::Trajectory(const SimConfig& config, Rng& rng) : kind_(config.traject
     init_recorded(config.recorded_trajectory);
     return;
   }
+  if (kind_ == TrajectoryKind::kCityLoop || kind_ == TrajectoryKind::kUrbanGrid || kind_ == TrajectoryKind::kHighway ||
+      kind_ == TrajectoryKind::kParkingLot) {
+    init_ordinary(config, rng, yaw0);
+    return;
+  }
   init_analytic(config, rng, yaw0);
+}
+
+void Trajectory::init_ordinary(const SimConfig& config, Rng& rng, double yaw0) {
+  const double duration_s = config.duration_s > 0.0 ? config.duration_s : 180.0;
+  const DrivePlan plan = ordinary_plan(kind_, config.ordinary_speed_kmh, duration_s, kPathStepM);
+  const Eigen::Rotation2Dd rot(yaw0);
+  table_.clear();
+  for (const PathPoint& q : plan.loop) {
+    const Vec2 xy = rot * Vec2(q.x, q.y);
+    table_.push_back({xy.x(), xy.y(), q.heading_rad + yaw0, q.curvature_per_m});
+    loop_xy_.push_back(xy);
+  }
+  closed_ = plan.closed;
+  loop_length_m_ = static_cast<double>(table_.size()) * kPathStepM;
+  profile_ = plan_speed(plan, duration_s, kPathStepM, rng);
+  total_length_m_ = profile_.s_m.back();
+  cruise_mps_ = plan.cruise_mps;
+  duration_s_ = std::min(duration_s, profile_.duration_s());
 }
 
 void Trajectory::init_recorded(const std::vector<StampedPose>& in) {
@@ -141,6 +164,7 @@ void Trajectory::init_analytic(const SimConfig& config, Rng& rng, double yaw0) {
   // Heading and curvature by central differences along the table.
   const std::size_t m = xy.size();
   const bool closed = kind_ == TrajectoryKind::kFigure8;
+  closed_ = closed;
   table_.resize(m);
   for (std::size_t i = 0; i < m; ++i) {
     const std::size_t a = closed ? (i + m - 1) % m : (i == 0 ? 0 : i - 1);
@@ -168,7 +192,7 @@ void Trajectory::init_analytic(const SimConfig& config, Rng& rng, double yaw0) {
 
 Trajectory::PathSample Trajectory::path_at(double s_m) const {
   if (table_.size() < 2 || loop_length_m_ <= 0.0) return table_.front();
-  const bool closed = kind_ == TrajectoryKind::kFigure8;
+  const bool closed = closed_;
   double s = closed ? std::fmod(s_m, loop_length_m_) : std::clamp(s_m, 0.0, loop_length_m_);
   if (s < 0) s += loop_length_m_;
   const double fi = s / kPathStepM;
@@ -184,6 +208,10 @@ Trajectory::PathSample Trajectory::path_at(double s_m) const {
 
 void Trajectory::speed_at(double tau, double& s, double& v, double& a) const {
   // Smooth (raised-cosine) start and stop ramps around a constant cruise speed.
+  if (!profile_.t_s.empty()) {
+    s = profile_.s_at(tau, v, a);
+    return;
+  }
   const double v0 = cruise_mps_, T = ramp_s_, L = total_length_m_;
   s = v = a = 0.0;
   if (v0 <= 0.0 || tau <= 0.0) return;

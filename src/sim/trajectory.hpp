@@ -6,6 +6,7 @@
 
 #include "core/geometry.hpp"
 #include "core/pose_stream.hpp"
+#include "sim/drive_plan.hpp"
 #include "sim/random.hpp"
 #include "sim/scene.hpp"
 #include "sim/simulate.hpp"
@@ -24,6 +25,8 @@ class Trajectory {
   double ins_height_m() const { return ins_height_m_; }
   /// One pass of the driven path (world xy, dense): what the scene keeps clear.
   const std::vector<Vec2>& loop_xy() const { return loop_xy_; }
+  /// Whether this is an ordinary drive (sim/drive_plan.hpp): its scene is scaled to its length.
+  bool ordinary() const { return !profile_.t_s.empty(); }
 
  private:
   struct PathSample {
@@ -31,6 +34,7 @@ class Trajectory {
   };
   void init_recorded(const std::vector<StampedPose>& in);
   void init_analytic(const SimConfig& config, Rng& rng, double yaw0);
+  void init_ordinary(const SimConfig& config, Rng& rng, double yaw0);
   PathSample path_at(double s_m) const;
   void speed_at(double tau_s, double& s_m, double& v_mps, double& a_mps2) const;
 
@@ -44,6 +48,8 @@ class Trajectory {
   double loop_length_m_ = 0.0;
   double total_length_m_ = 0.0;
   double cruise_mps_ = 0.0, ramp_s_ = 3.0;
+  bool closed_ = false;              ///< the table is one loop of a closed path
+  SpeedProfile profile_;             ///< ordinary drives: speed with stops (empty: the ramps above)
   // Recorded: the vehicle poses, re-timed to start at 0.
   PoseStream recorded_;
 };

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "core/check_run.hpp"
 #include "core/pipeline.hpp"
 #include "input/input_config.hpp"
 #include "report/viewer.hpp"
@@ -17,6 +18,7 @@ namespace insalign::cli {
 
 struct ToolConfig {
   PipelineConfig calibrate;
+  CheckRunConfig check;  ///< insalign check: tolerances, verdict rules, stretches, history
   io::InputConfig input;
   sim::SimConfig sim;
   io::ViewerConfig report;  ///< the report's 3D view
@@ -25,6 +27,7 @@ struct ToolConfig {
 template <class V>
 void visit_config(V& v, ToolConfig& c) {
   visit_config(v, c.calibrate);
+  v.section("check", c.check);
   v.section("input", c.input);
   v.section("sim", c.sim);
   v.section("report", c.report);

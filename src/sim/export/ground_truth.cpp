@@ -3,20 +3,27 @@
 #include <Eigen/Geometry>
 
 #include "core/geometry.hpp"
+#include "files/atomic_file.hpp"
 #include "files/extrinsic_json.hpp"
+#include "sim/simulate_config.hpp"
 #include "sim/traffic.hpp"
 
 namespace insalign::cli {
 
 const char* scene_name(sim::SceneKind k) { return k == sim::SceneKind::kFeaturePoor ? "feature-poor" : "intersection"; }
 const char* trajectory_name(sim::TrajectoryKind k) {
-  switch (k) {
-    case sim::TrajectoryKind::kFigure8: return "figure8";
-    case sim::TrajectoryKind::kStraight: return "straight";
-    case sim::TrajectoryKind::kStandstill: return "standstill";
-    case sim::TrajectoryKind::kRecorded: return "recorded";
+  return k == sim::TrajectoryKind::kRecorded ? "recorded" : enum_name(k).data();  // the names are literals
+}
+
+void write_installed_extrinsics(const sim::World& w, const std::filesystem::path& out) {
+  for (const sim::SimLidar& l : w.lidars) {
+    const std::string suffix = w.lidars.size() > 1 ? "-" + l.name : "";
+    nlohmann::json j;
+    j["T_ins_lidar"] = io::transform_to_json(l.T_ins_lidar_installed);
+    j["time_offset_s"] = l.time_offset_s;
+    j["source"] = "insalign simulate: the installed extrinsic (the truth, knocked back by --knock)";
+    io::write_file_atomic(out / ("installed-extrinsic" + suffix + ".json"), j.dump(2) + "\n");
   }
-  return "?";
 }
 
 namespace {
@@ -90,6 +97,8 @@ nlohmann::json ground_truth_json(const sim::World& w, std::size_t points, const 
   j["time_offset_s"] = w.lidars.front().time_offset_s;  // = c.time_offset_s but in a rig
   j["ins_height_m"] = w.ins_height_m;
   j["T_ins_lidar_init"] = io::transform_to_json(w.T_ins_lidar_init);
+  j["T_ins_lidar_installed"] = io::transform_to_json(w.lidars.front().T_ins_lidar_installed);
+  j["knock"] = {{"translation_m", {c.knock(0), c.knock(1), c.knock(2)}}, {"rpy_deg", {c.knock(3), c.knock(4), c.knock(5)}}};
   j["init_error"] = {{"angle_deg", init_err.angle_deg}, {"dt_norm_m", init_err.dt_norm_m}};
   j["frames"] = w.frame_count();
   j["points"] = points;

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <filesystem>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -25,5 +26,8 @@ nlohmann::json rig_ground_truth_json(const sim::World& w, const std::vector<std:
 
 const char* scene_name(sim::SceneKind k);
 const char* trajectory_name(sim::TrajectoryKind k);
+/// installed-extrinsic.json (a rig: installed-extrinsic-<name>.json): what the car believes, in the
+/// extrinsic.json shape `insalign check --extrinsic` reads; the truth unless SimConfig::knock.
+void write_installed_extrinsics(const sim::World& w, const std::filesystem::path& out);
 
 }  // namespace insalign::cli

@@ -98,6 +98,7 @@ void write_metadata(const sim::World& w, const fs::path& out, const Rendered& r,
   nlohmann::json gt = ground_truth_json(w, r.points.front(), labels);
   if (is_rig(w)) gt["lidars"] = rig_ground_truth_json(w, r.points);
   io::write_file_atomic(out / "ground_truth.json", gt.dump(2) + "\n");
+  write_installed_extrinsics(w, out);
 }
 
 }  // namespace insalign::cli
