@@ -24,13 +24,16 @@ double rotation_angle_deg(const Mat3& R) {
 
 // The usual causes of a grossly wrong extrinsic, judged from the estimate: the installed one
 // given in the opposite direction (T_lidar_ins for T_ins_lidar), or not this LiDAR's.
-std::string gross_warning(const Iso3& T_installed, const Iso3& T_est, const CheckConfig& config) {
+// tz_known: without it the estimate's tz is only the starting value (the installed file's), no evidence.
+std::string gross_warning(const Iso3& T_installed, const Iso3& T_est, bool tz_known, const CheckConfig& config) {
   const double rot_deg = rotation_angle_deg(T_est.linear() * T_installed.linear().transpose());
   const double trans_m = (T_est.translation() - T_installed.translation()).norm();
   if (rot_deg <= config.gross_rot_deg && trans_m <= config.gross_trans_m) return "";
   const Iso3 T_inverted = T_installed.inverse();
   const double inv_rot_deg = rotation_angle_deg(T_est.linear() * T_inverted.linear().transpose());
-  const double inv_trans_m = (T_est.translation() - T_inverted.translation()).norm();
+  Vec3 inv_dt = T_est.translation() - T_inverted.translation();
+  if (!tz_known) inv_dt.z() = 0.0;
+  const double inv_trans_m = inv_dt.norm();
   std::string out = fmt::format("the installed extrinsic is grossly off ({:.2f} deg, {:.3f} m from what the drive shows)",
                                 rot_deg, trans_m);
   if (inv_rot_deg <= config.gross_rot_deg && inv_trans_m <= config.gross_trans_m)
@@ -177,7 +180,7 @@ CheckFindings judge_extrinsic(const Iso3& T_installed, double offset_installed_s
   const std::array<bool, 7> unchecked = unchecked_dofs(config);
   f.verdict = overall_verdict(f.dofs, unchecked);
   f.message = verdict_message(f.dofs, f.verdict, unchecked);
-  const std::string gross = gross_warning(T_installed, measured.T_ins_lidar, config);
+  const std::string gross = gross_warning(T_installed, measured.T_ins_lidar, std::isfinite(measured.stddev(2)), config);
   if (!gross.empty()) {
     f.warnings.push_back(gross);
     f.message += " (" + gross + ")";

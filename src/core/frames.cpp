@@ -98,10 +98,7 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s, double m
     out.distance_m += d;
     out.turned_rad += a;
     if (d > 1e-3 || a > 1e-4) ++out.moving;
-    // A step across a stretch no frame is offered in (a span left out, a check's unused stretch)
-    // adds no motion: slices of the measure there would hold no frame and waste the stage's budget.
-    const bool across_gap = out.t_end_s[k] - out.t_end_s[k - 1] > 10.0 * period;
-    out.motion_m[k] = out.motion_m[k - 1] + (across_gap ? 0.0 : d + config.turn_weight_m_per_rad * a);
+    out.motion_m[k] = out.motion_m[k - 1] + d + config.turn_weight_m_per_rad * a;
   }
   return out;
 }
