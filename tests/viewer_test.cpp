@@ -1,17 +1,23 @@
 // The report's 3D view: the scene (the same points at each extrinsic, decimated, classes), its
-// encoding (quantised positions and runs decoded back), and the page in a real browser (headless
-// Chromium from file://: drawn, before and after differ, toggles change the picture, no errors).
+// encoding (quantised positions and runs decoded back), and the pages in a real browser (headless
+// Chromium from file:// driven with real key, mouse and wheel events over its DevTools pipe:
+// drawn, before and after differ, toggles, orbit, pan, zoom and a click do what they say).
 #include <gtest/gtest.h>
 #include <stb_image.h>  // decoder compiled into Debian's libstb
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "browser_cdp.hpp"
 #include "cli_test_util.hpp"
+#include "core/check.hpp"
+#include "report/check_outputs.hpp"
 #include "core/stitch.hpp"
+#include "files/read_file.hpp"
 #include "report/report.hpp"
 #include "report/viewer.hpp"
 #include "test_world.hpp"
@@ -69,24 +75,6 @@ TEST(ViewerScene, SamePointsAtEveryExtrinsicDecimatedToTheBudget) {
   EXPECT_GT(bad, 0u);
 }
 
-std::string decode_base64(const std::string& s) {
-  std::string out;
-  std::uint32_t v = 0;
-  int bits = 0;
-  for (char c : s) {
-    const char* table = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    const char* p = c == '=' ? nullptr : std::strchr(table, c);
-    if (!p) break;
-    v = (v << 6) | static_cast<std::uint32_t>(p - table);
-    bits += 6;
-    if (bits >= 8) {
-      bits -= 8;
-      out += static_cast<char>((v >> bits) & 0xff);
-    }
-  }
-  return out;
-}
-
 TEST(ViewerEncode, PositionsFramesAndClassesDecodeBack) {
   io::ViewerScene s;
   s.extrinsic_labels = {"a", "b"};
@@ -113,7 +101,7 @@ TEST(ViewerEncode, PositionsFramesAndClassesDecodeBack) {
   EXPECT_EQ(j["meta"]["points_total"], 3000);
   // Runs in point order: frame 0 used (500), frame 0 moving (100), frame 1 used (400).
   EXPECT_EQ(j["meta"]["runs"], json::parse("[[0,0,0,500],[0,0,1,100],[1,0,0,400]]"));
-  const std::string bytes = decode_base64(j["points"].get<std::string>());
+  const std::string bytes = testing::decode_base64(j["points"].get<std::string>());
   ASSERT_EQ(bytes.size(), 2u * 1000 * 6);
   const auto& box = j["meta"]["box"];
   for (int e = 0; e < 2; ++e)
@@ -128,6 +116,59 @@ TEST(ViewerEncode, PositionsFramesAndClassesDecodeBack) {
   EXPECT_NE(out.html.find("src=\"dir/viewer_data.js\""), std::string::npos);
 }
 
+// ---- check.html's view --------------------------------------------------------------------------
+
+// A check of the fixture's drive: installed at the wrong start, measured at the truth, the check
+// having used the first half of the drive.
+io::LidarCheck check_of(const Fixture& f, const FrameStore& store, const std::string& name, std::size_t budget) {
+  io::LidarCheck l;
+  l.name = name;
+  l.T_ins_lidar_installed = f.T_start;
+  MeasuredExtrinsic m{f.drive.T_ins_lidar_true, 0.0, Vec7::Constant(1e-4)};
+  l.run.findings = judge_extrinsic(f.T_start, 0.0, m, CheckConfig{});
+  const double t0 = f.drive.spec.t0_s;
+  l.run.used = {{t0 - 1.0, t0 + 2.0, 5.0, "turn 90 deg left"}};
+  l.viewer = io::check_viewer_scene(store, l.run, f.T_start, 0.0, io::ViewerConfig{budget});
+  return l;
+}
+
+TEST(CheckViewer, InstalledAndCorrectedWithTheStretchesUsedInColour) {
+  const Fixture f = make_fixture();
+  const FrameStore store = testing::store_of(f.drive.data);
+  const io::LidarCheck l = check_of(f, store, "", 20000);
+  const io::ViewerScene& s = l.viewer;
+  ASSERT_EQ(s.extrinsic_labels, (std::vector<std::string>{"installed", "corrected"}));
+  ASSERT_GT(s.size(), 5000u);
+  EXPECT_LE(s.size(), 20000u);
+  // "corrected" is the truth (the check measured it): the same points as the map stitched there.
+  double moved = 0.0;
+  for (std::size_t j = 0; j < s.size(); ++j) moved += (s.p_world[0][j] - s.p_world[1][j]).norm();
+  EXPECT_GT(moved / s.size(), 0.3);
+  // Frames whose sweep lies in the used stretch (t0 .. t0 + 2 s) are in colour, the others grey.
+  std::size_t inside = 0, outside = 0;
+  for (std::size_t j = 0; j < s.size(); ++j) {
+    const double t = s.frames[s.frame[j]].t_s - f.drive.spec.t0_s;
+    const bool used = t - store.sweep_period_s() >= -1.0 && t <= 2.0;
+    EXPECT_EQ(s.point_class[j] == io::ViewerPointClass::kOutside, !used) << t;
+    (used ? inside : outside)++;
+  }
+  EXPECT_GT(inside, 0u);
+  EXPECT_GT(outside, 0u);
+  // check.html: verdict and table first, then the view, then the details.
+  const std::string html = io::check_html({l}, io::encode_viewer(s).html);
+  const std::size_t table = html.find("</table>"), view = html.find("insalign-viewer"), used = html.find("Stretches used");
+  EXPECT_TRUE(table < view && view < used) << table << " " << view << " " << used;
+  EXPECT_NE(html.find("grey: frames outside the stretches the check used"), std::string::npos);
+  // The budget 0 writes no view, and the page says nothing of one.
+  const io::LidarCheck none = check_of(f, store, "", 0);
+  EXPECT_EQ(none.viewer.size(), 0u);
+  const std::filesystem::path dir = testing::fresh_dir("insalign_viewer_", "check_none");
+  io::write_check_html(dir, {none});
+  EXPECT_FALSE(std::filesystem::exists(dir / "report" / "viewer_data.js"));
+  EXPECT_EQ(io::read_file(dir / "check.html").find("insalign-viewer"), std::string::npos);
+  std::filesystem::remove_all(dir);
+}
+
 // ---- In a real browser -------------------------------------------------------------------------
 
 struct Shot {
@@ -135,19 +176,12 @@ struct Shot {
   std::vector<unsigned char> rgb;
 };
 
-const char* kChromium = "chromium --headless --no-sandbox --enable-unsafe-swiftshader --use-angle=swiftshader "
-                        "--no-first-run --disable-extensions --disable-background-networking --window-size=900,700 ";
-
-Shot screenshot(const std::filesystem::path& page, const std::string& hash, const std::filesystem::path& png) {
-  const auto [rc, out] = testing::run_command(std::string(kChromium) + "--user-data-dir=" + (png.parent_path() / "profile").string() +
-                                              " --screenshot=" + png.string() + " 'file://" + page.string() + "#" + hash + "'");
+Shot decode_png(const std::string& png) {
   Shot s;
   int n = 0;
-  unsigned char* data = stbi_load(png.c_str(), &s.w, &s.h, &n, 3);
-  if (!data) {
-    ADD_FAILURE() << "no screenshot for #" << hash << ": " << out;
-    return s;
-  }
+  unsigned char* data = stbi_load_from_memory(reinterpret_cast<const unsigned char*>(png.data()), static_cast<int>(png.size()),
+                                              &s.w, &s.h, &n, 3);
+  if (!data) return s;
   s.rgb.assign(data, data + 3 * s.w * s.h);
   stbi_image_free(data);
   return s;
@@ -169,24 +203,56 @@ double ink(const Shot& a) {
   std::fill(white.rgb.begin(), white.rgb.end(), 255);
   return differing(a, white);
 }
-
-// The viewer's status element after load, as the browser left the DOM.
-std::string status_after_load(const std::filesystem::path& page, const std::string& hash, const std::filesystem::path& dir,
-                              std::string* log) {
-  const auto [rc, out] = testing::run_command(std::string(kChromium) + "--user-data-dir=" + (dir / "profile").string() +
-                                              " --enable-logging=stderr --v=0 --dump-dom 'file://" + page.string() + "#" + hash + "'");
-  *log = out;
-  const std::size_t at = out.find("<div id=\"viewer-status\"");
-  return at == std::string::npos ? std::string() : out.substr(at, out.find('>', at) - at);
+// Share of grey points' pixels (the drive beyond a check's stretches).
+double grey(const Shot& a) {
+  std::size_t n = 0;
+  for (std::size_t i = 0; i + 2 < a.rgb.size(); i += 3)
+    n += std::abs(a.rgb[i] - 158) < 6 && std::abs(a.rgb[i + 1] - 158) < 6 && std::abs(a.rgb[i + 2] - 158) < 6;
+  return a.rgb.empty() ? 0.0 : 3.0 * static_cast<double>(n) / static_cast<double>(a.rgb.size());
 }
 
-int attribute_int(const std::string& tag, const std::string& name) {
-  const std::size_t at = tag.find(name + "=\"");
-  return at == std::string::npos ? -1 : std::atoi(tag.c_str() + at + name.size() + 2);
+// A page with the viewer open in one headless Chromium, acted on with real input events.
+struct ViewerPage {
+  testing::Browser browser;
+  json canvas;  // its box in the window, CSS pixels
+  ViewerPage(const std::filesystem::path& profile, const std::filesystem::path& page, const std::string& hash)
+      : browser(profile, 900, 700) {
+    browser.navigate("file://" + page.string() + "#" + hash);
+    if (!browser.wait_for("document.getElementById('viewer-status') && "
+                          "document.getElementById('viewer-status').dataset.state !== 'loading'"))
+      throw std::runtime_error("the viewer did not load within 10 s");
+    canvas = browser.eval("(() => { const r = document.querySelector('#insalign-viewer canvas').getBoundingClientRect(); "
+                          "return {x: r.left, y: r.top, w: r.width, h: r.height}; })()");
+  }
+  json status() { return browser.eval("Object.assign({}, document.getElementById('viewer-status').dataset)"); }
+  double cx() { return canvas["x"].get<double>() + canvas["w"].get<double>() / 2; }
+  double cy() { return canvas["y"].get<double>() + canvas["h"].get<double>() / 2; }
+  /// The picture after `act` and the view's next draw.
+  template <class Act>
+  Shot after(Act act) {
+    const int draws = std::stoi(status().value("draws", "0"));
+    act(browser);
+    if (!browser.wait_for("+document.getElementById('viewer-status').dataset.draws > " + std::to_string(draws)))
+      ADD_FAILURE() << "the view did not draw again";
+    return decode_png(browser.screenshot_png());
+  }
+  Shot shot() { return decode_png(browser.screenshot_png()); }
+  std::vector<double> camera() {  // yaw, pitch, distance, target x y z
+    std::vector<double> v;
+    std::stringstream in(status().value("camera", ""));
+    for (std::string x; std::getline(in, x, ',');) v.push_back(std::stod(x));
+    return v;
+  }
+};
+
+bool same(const std::vector<double>& a, const std::vector<double>& b, std::size_t from, std::size_t to) {
+  for (std::size_t i = from; i < to && i < a.size() && i < b.size(); ++i)
+    if (std::abs(a[i] - b[i]) > 1e-3) return false;
+  return a.size() == 7 && b.size() == 7;
 }
 
-TEST(ViewerBrowser, ReportFromFileDrawsSwitchesAndToggles) {
-  if (std::system("command -v chromium > /dev/null 2>&1") != 0) GTEST_SKIP() << "chromium is not installed (scripts/install-deps.sh)";
+TEST(ViewerBrowser, ReportFromFileDrawsSwitchesTogglesOrbitsPansZoomsAndPicks) {
+  if (!testing::have_chromium()) GTEST_SKIP() << "chromium is not installed (scripts/install-deps.sh)";
   const Fixture f = make_fixture();
   const FrameStore store = testing::store_of(f.drive.data);
   // A report as calibrate writes it: PNG pictures of both maps and the 3D view beside them.
@@ -201,41 +267,109 @@ TEST(ViewerBrowser, ReportFromFileDrawsSwitchesAndToggles) {
   io::write_report(dir, data, images);
   const std::filesystem::path page = dir / "report.html";
 
-  std::string log;
-  const std::string status = status_after_load(page, "", dir, &log);
-  ASSERT_FALSE(status.empty()) << log;
-  EXPECT_NE(status.find("data-state=\"ok\""), std::string::npos) << status;
-  EXPECT_EQ(status.find("data-errors"), std::string::npos) << status;
-  EXPECT_EQ(log.find("Uncaught"), std::string::npos) << log;
-  const int load_ms = attribute_int(status, "data-load-ms");
+  const auto start = std::chrono::steady_clock::now();
+  ViewerPage v(dir / "profile", page, "full");
+  const double open_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const json status = v.status();
+  EXPECT_EQ(status.value("state", ""), "ok") << status.dump();
+  EXPECT_FALSE(status.contains("errors")) << status.dump();
+  const int load_ms = std::stoi(status.value("load-ms", "-1"));
   EXPECT_GE(load_ms, 0);
   EXPECT_LT(load_ms, 5000) << "the view took " << load_ms << " ms to load";
-  std::cout << "viewer loaded in " << load_ms << " ms (" << scene.size() << " points)\n";
+  std::cout << "viewer loaded in " << load_ms << " ms (" << scene.size() << " points); browser started and page open in "
+            << open_s << " s\n";
 
-  const Shot after = screenshot(page, "full", dir / "after.png");
-  const Shot before = screenshot(page, "full&extrinsic=0", dir / "before.png");
-  const Shot by_time = screenshot(page, "full&colour=2", dir / "time.png");
-  const Shot no_left_out = screenshot(page, "full&leftout=0", dir / "leftout.png");
-  const Shot wall = screenshot(page, "full&section=0", dir / "wall.png");
+  using B = testing::Browser;
+  const Shot after = v.shot();
   EXPECT_GT(ink(after), 0.05) << "the canvas is blank";
+  // One key switches to the start and back: the same camera, so the same picture again.
+  const Shot before = v.after([](B& b) { b.key("b"); });
+  EXPECT_EQ(v.status().value("extrinsic", ""), "start");
   EXPECT_GT(differing(before, after), 0.01) << "start and final look the same";
-  EXPECT_GT(differing(by_time, after), 0.01) << "colour by frame time changed nothing";
-  EXPECT_GT(differing(no_left_out, after), 0.001) << "hiding the left-out points changed nothing";
-  EXPECT_GT(differing(wall, after), 0.05) << "jumping to the wall section changed nothing";
-  if (const char* keep = std::getenv("INSALIGN_VIEWER_SHOTS")) std::filesystem::copy(dir / "after.png", keep, std::filesystem::copy_options::overwrite_existing);
+  EXPECT_LT(differing(v.after([](B& b) { b.key("b"); }), after), 0.002) << "the camera moved with the switch";
+  EXPECT_GT(differing(v.after([](B& b) { b.key("c"); }), after), 0.01) << "colour by frame time changed nothing";
+  EXPECT_EQ(v.status().value("mode", ""), "frame time");
+  v.after([](B& b) { b.key("c"); });
+  EXPECT_GT(differing(v.after([](B& b) { b.key("l"); }), after), 0.001) << "hiding the left-out points changed nothing";
+  v.after([](B& b) { b.key("l"); });
+  if (const char* keep = std::getenv("INSALIGN_VIEWER_SHOTS")) {
+    std::ofstream(keep, std::ios::binary) << v.browser.screenshot_png();
+  }
 
-  // A click on the wall (the centre of the view after the jump) names a point and its frame.
-  const std::string picked = status_after_load(page, "full&section=0&pick=450,300", dir, &log);
-  EXPECT_NE(picked.find("data-picked="), std::string::npos) << picked;
-  const std::size_t info = log.find("viewer-info\">");
-  ASSERT_NE(info, std::string::npos);
-  const std::string line = log.substr(info, log.find('<', info) - info);
+  // The mouse: a drag orbits (the camera turns about its target), a shift-drag and a right-drag
+  // pan (the target moves, the direction stays), the wheel zooms (the distance changes).
+  const double x = v.cx(), y = v.cy();
+  const std::vector<double> c0 = v.camera();
+  ASSERT_EQ(c0.size(), 7u) << v.status().dump();
+  const Shot orbited = v.after([&](B& b) { b.drag(x, y, x + 150, y + 60); });
+  const std::vector<double> c1 = v.camera();
+  EXPECT_FALSE(same(c0, c1, 0, 2)) << "a drag did not orbit";
+  EXPECT_TRUE(same(c0, c1, 2, 7)) << "a drag moved the target or the distance";
+  EXPECT_GT(differing(orbited, after), 0.02) << "orbiting changed nothing on screen";
+  const Shot panned = v.after([&](B& b) { b.drag(x, y, x - 120, y + 40, "left", B::kShift); });
+  const std::vector<double> c2 = v.camera();
+  EXPECT_TRUE(same(c1, c2, 0, 3)) << "a shift-drag turned the camera";
+  EXPECT_FALSE(same(c1, c2, 3, 7)) << "a shift-drag did not pan";
+  EXPECT_GT(differing(panned, orbited), 0.02) << "panning changed nothing on screen";
+  v.after([&](B& b) { b.drag(x, y, x + 80, y - 50, "right"); });
+  const std::vector<double> c3 = v.camera();
+  EXPECT_TRUE(same(c2, c3, 0, 3)) << "a right-drag turned the camera";
+  EXPECT_FALSE(same(c2, c3, 3, 7)) << "a right-drag did not pan";
+  const Shot zoomed = v.after([&](B& b) { b.wheel(x, y, -400); });
+  const std::vector<double> c4 = v.camera();
+  ASSERT_EQ(c4.size(), 7u);
+  EXPECT_LT(c4[2], 0.8 * c3[2]) << "the wheel did not zoom in";
+  EXPECT_GT(differing(zoomed, panned), 0.02) << "zooming changed nothing on screen";
+
+  // Key 1 flies to the wall section; a click on it (the centre of the view) names a point.
+  EXPECT_GT(differing(v.after([](B& b) { b.key("1"); }), after), 0.05) << "jumping to the wall section changed nothing";
+  v.after([&](B& b) { b.click(x, y); });
+  EXPECT_TRUE(v.status().contains("picked")) << v.status().dump();
+  const std::string line = v.browser.eval("document.querySelector('#insalign-viewer .viewer-info').textContent").get<std::string>();
   EXPECT_NE(line.find("m (world) · frame frame"), std::string::npos) << line;
+  EXPECT_TRUE(v.browser.errors.empty()) << v.browser.errors.front();
 
   // Without WebGL: one line pointing at the PNG projections instead.
-  const std::string fallback = status_after_load(page, "nowebgl", dir, &log);
-  EXPECT_NE(fallback.find("data-state=\"fallback\""), std::string::npos) << fallback;
-  EXPECT_NE(log.find("WebGL is not available in this browser: the PNG projections below show the map."), std::string::npos);
+  v.browser.navigate("about:blank");
+  v.browser.navigate("file://" + page.string() + "#nowebgl");
+  EXPECT_TRUE(v.browser.wait_for("document.getElementById('viewer-status').dataset.state === 'fallback'"));
+  const std::string fallback = v.browser.eval("document.querySelector('#insalign-viewer .viewer-fallback').textContent").get<std::string>();
+  EXPECT_EQ(fallback, "WebGL is not available in this browser: the PNG projections below show the map.");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ViewerBrowser, CheckPageShowsInstalledAndCorrectedAndARigByLidar) {
+  if (!testing::have_chromium()) GTEST_SKIP() << "chromium is not installed (scripts/install-deps.sh)";
+  const Fixture f = make_fixture();
+  const FrameStore store = testing::store_of(f.drive.data);
+  const std::filesystem::path dir = testing::fresh_dir("insalign_viewer_", "check");
+  io::write_check_html(dir / "one", {check_of(f, store, "", 200000)});
+  using B = testing::Browser;
+  {
+    ViewerPage v(dir / "profile1", dir / "one" / "check.html", "full");
+    EXPECT_EQ(v.status().value("state", ""), "ok") << v.status().dump();
+    EXPECT_EQ(v.status().value("extrinsic", ""), "corrected");
+    const Shot corrected = v.shot();
+    EXPECT_GT(ink(corrected), 0.05) << "the canvas is blank";
+    EXPECT_GT(grey(corrected), 0.002) << "the drive beyond the check's stretches is not shown grey";
+    const Shot installed = v.after([](B& b) { b.key("b"); });
+    EXPECT_EQ(v.status().value("extrinsic", ""), "installed");
+    EXPECT_GT(differing(installed, corrected), 0.01) << "installed and corrected look the same";
+    const Shot hidden = v.after([](B& b) { b.key("l"); });
+    EXPECT_LT(grey(hidden), 0.1 * grey(corrected)) << "L did not hide the drive beyond the stretches";
+    EXPECT_TRUE(v.browser.errors.empty()) << v.browser.errors.front();
+  }
+  // A rig: both LiDARs in one view (each half the budget), coloured by LiDAR with C.
+  io::write_check_html(dir / "rig", {check_of(f, store, "front", 100000), check_of(f, store, "rear", 100000)});
+  {
+    ViewerPage v(dir / "profile2", dir / "rig" / "check.html", "full");
+    EXPECT_EQ(v.status().value("state", ""), "ok") << v.status().dump();
+    const Shot height = v.shot();
+    const Shot by_lidar = v.after([](B& b) { b.key("c"); });
+    EXPECT_EQ(v.status().value("mode", ""), "LiDAR");
+    EXPECT_GT(differing(by_lidar, height), 0.01) << "colour by LiDAR changed nothing";
+    EXPECT_TRUE(v.browser.errors.empty()) << v.browser.errors.front();
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -67,7 +67,7 @@ PipelineConfig pipeline_config(const CheckOptions& o, PipelineConfig config) {
 }
 
 io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::string& name, const Installed& installed,
-                           const ToolConfig& tool) {
+                           const ToolConfig& tool, const io::ViewerConfig& viewer) {
   io::LidarCheck l;
   l.name = name;
   l.source = installed.source;
@@ -81,6 +81,7 @@ io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::strin
   l.run = run_check(store, l.T_ins_lidar_installed, l.time_offset_installed_s, config, tool.check);
   const double t_end = data.frames.frames.empty() ? 0.0 : data.frames.frames.back().t_end_s;
   l.drive_end = io::iso8601_utc(t_end + l.run.measured.time_offset_s);
+  l.viewer = io::check_viewer_scene(store, l.run, l.T_ins_lidar_installed, l.time_offset_installed_s, viewer);
   return l;
 }
 
@@ -121,13 +122,15 @@ int run_check_command(const CheckOptions& o) {
   io::ensure_writable_dir(o.out);
   std::vector<io::LidarCheck> lidars;
   const bool rig = input.lidars.size() > 1;
+  io::ViewerConfig viewer = tool.report;  // the LiDARs share the 3D view's budget
+  viewer.max_points /= std::max<std::size_t>(1, input.lidars.size());
   for (std::size_t i = 0; i < input.lidars.size(); ++i)
-    lidars.push_back(check_lidar(o, input.lidars[i], rig ? input.lidar_names[i] : "", installed[i], tool));
+    lidars.push_back(check_lidar(o, input.lidars[i], rig ? input.lidar_names[i] : "", installed[i], tool, viewer));
   if (!o.history.empty()) apply_history(o, tool, lidars);
   const std::filesystem::path out = o.out;
   const CheckVerdict verdict = io::rig_verdict(lidars);
   if (verdict == CheckVerdict::kRecalibrate) io::write_corrected(out, lidars);
-  io::write_file_atomic(out / "check.html", io::check_html(lidars));
+  io::write_check_html(out, lidars);
   io::write_file_atomic(out / "check.json", io::check_to_json(lidars).dump(2) + "\n");
   for (const io::LidarCheck& l : lidars) {
     fmt::print("{}{}\n", l.name.empty() ? "" : l.name + ": ", l.message());

@@ -104,7 +104,8 @@ std::string interval_svg(const DofCheck& d) {
   return s + "</svg>";
 }
 
-std::string lidar_html(const LidarCheck& l) {
+// What the reader needs first: the verdict and the per-DOF table.
+std::string lidar_verdict_html(const LidarCheck& l) {
   std::string s;
   if (!l.name.empty()) s += "<h2>" + html_escape(l.name) + "</h2>\n";
   s += fmt::format("<p class=\"verdict {0}\"><b>{0}</b>: {1}</p>\n", enum_name(l.verdict()), html_escape(l.message()));
@@ -117,6 +118,13 @@ std::string lidar_html(const LidarCheck& l) {
                      interval_svg(d), enum_name(d.verdict), html_escape(d.why));
   }
   s += "</table>\n";
+  return s;
+}
+
+// Below the 3D view: how the drive measured it.
+std::string lidar_details_html(const LidarCheck& l) {
+  std::string s;
+  if (!l.name.empty()) s += "<h3>" + html_escape(l.name) + "</h3>\n";
   if (l.history)
     s += fmt::format("<p>History: {} drive{} since {}.</p>\n", l.history->drives, l.history->drives == 1 ? "" : "s",
                      html_escape(l.history->since));
@@ -223,15 +231,39 @@ json check_to_json(const std::vector<LidarCheck>& lidars) {
   return out;
 }
 
-std::string check_html(const std::vector<LidarCheck>& lidars) {
+std::string check_html(const std::vector<LidarCheck>& lidars, const std::string& viewer_html) {
   std::string s =
       "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>insalign check</title><style>"
       "body{font-family:sans-serif;max-width:1100px;margin:1em auto}table{border-collapse:collapse}"
       "td,th{border:1px solid #ccc;padding:3px 6px;font-size:90%}.verdict{font-size:130%}"
       ".ok{color:#070}.recalibrate{color:#c00}.inconclusive{color:#c80}</style></head><body>\n";
   s += fmt::format("<h1>insalign check: <span class=\"{0}\">{0}</span></h1>\n", enum_name(rig_verdict(lidars)));
-  for (const LidarCheck& l : lidars) s += lidar_html(l);
+  for (const LidarCheck& l : lidars) s += lidar_verdict_html(l);
+  if (!viewer_html.empty())
+    s += "<h2>The map in 3D</h2>\n<p>The drive's map at the installed and at the corrected extrinsic: press <kbd>B</kbd> "
+         "to switch (the camera stays), <kbd>C</kbd> to colour by frame time" +
+         std::string(lidars.size() > 1 ? " or by LiDAR" : "") +
+         ". In colour: the stretches the check used; grey: the drive beyond them (<kbd>L</kbd> hides it with the "
+         "left-out points).</p>\n" + viewer_html;
+  s += lidars.size() > 1 ? "<h2>How the drive measured it</h2>\n" : "";
+  for (const LidarCheck& l : lidars) s += lidar_details_html(l);
   return s + "</body></html>\n";
+}
+
+void write_check_html(const std::filesystem::path& out_dir, const std::vector<LidarCheck>& lidars) {
+  std::string viewer_html;
+  if (lidars.size() == 1 && lidars[0].viewer.size() > 0) viewer_html = write_viewer(out_dir, lidars[0].viewer);
+  if (lidars.size() > 1) {  // one view, coloured by LiDAR (a page holds one viewer)
+    std::vector<ViewerScene> scenes;
+    std::vector<std::string> names;
+    for (const LidarCheck& l : lidars) {
+      scenes.push_back(l.viewer);
+      names.push_back(l.name);
+    }
+    const ViewerScene rig = merge_scenes(std::move(scenes), names);
+    if (rig.size() > 0) viewer_html = write_viewer(out_dir, rig);
+  }
+  write_file_atomic(out_dir / "check.html", check_html(lidars, viewer_html));
 }
 
 std::map<std::string, CheckRecord> parse_check_record(std::string_view text, const std::string& file) {

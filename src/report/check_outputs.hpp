@@ -12,6 +12,8 @@
 
 #include "core/check_history.hpp"
 #include "core/check_run.hpp"
+#include "core/frame_store.hpp"
+#include "report/viewer.hpp"
 
 namespace insalign::io {
 
@@ -25,6 +27,7 @@ struct LidarCheck {
   CheckRun run;
   std::optional<HistoryFindings> history;  ///< set: the verdict is the history's
   std::string drive_end;             ///< ISO 8601 UTC time of the drive's last sweep
+  ViewerScene viewer;                ///< check.html's 3D view (check_viewer_scene); empty: none
   /// The verdict, per-DOF findings and message the outputs state (the history's when set).
   CheckVerdict verdict() const { return history ? history->verdict : run.findings.verdict; }
   const std::array<DofCheck, 7>& dofs() const { return history ? history->dofs : run.findings.dofs; }
@@ -40,9 +43,21 @@ std::string iso8601_basic(const std::string& extended);
 
 /// check.json: one LiDAR's object (CONVENTIONS), or {"verdict", "lidars": {name: ...}} for a rig.
 nlohmann::json check_to_json(const std::vector<LidarCheck>& lidars);
-/// check.html: verdict first, per-DOF correction with its interval against the tolerance, the
-/// map's crispness at the installed and the corrected extrinsic, the stretches used.
-std::string check_html(const std::vector<LidarCheck>& lidars);
+/// check.html: verdict first, per-DOF correction with its interval against the tolerance, then the
+/// 3D view (`viewer_html`, may be empty), then the map's crispness at the installed and the
+/// corrected extrinsic, the stretches used.
+std::string check_html(const std::vector<LidarCheck>& lidars, const std::string& viewer_html = "");
+/// check.html and its 3D view's files (OUT_DIR/report/viewer*.js; a rig's LiDARs in one view,
+/// coloured by LiDAR).
+void write_check_html(const std::filesystem::path& out_dir, const std::vector<LidarCheck>& lidars);
+
+/// The 3D view of one LiDAR's check (store: the whole drive, as the check was given it): the
+/// same frames placed at the installed extrinsic and at the one this drive's measurement corrects
+/// it to; frames in the stretches the check used (as many as its crispness figures) and, grey,
+/// some beyond them; the points the stages left out in their own colours. None when
+/// config.max_points is 0.
+ViewerScene check_viewer_scene(const FrameStore& store, const CheckRun& run, const Iso3& T_ins_lidar_installed,
+                               double time_offset_installed_s, const ViewerConfig& config);
 
 /// A check.json read back as history records, one per LiDAR name ("" for a single LiDAR): the
 /// drive's own measurement (its "drive" object), not a combination. Throws InputError.

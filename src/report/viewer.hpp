@@ -41,7 +41,8 @@ void visit_config(V& v, ViewerConfig& c) {
 }
 
 /// Why a point was left out by the stages (drawn in its own colour, hidden by a toggle).
-enum class ViewerPointClass : std::uint8_t { kUsed = 0, kMoving = 1, kBadIns = 2 };
+/// kOutside: a frame outside the stretches a check used (shown for context, grey).
+enum class ViewerPointClass : std::uint8_t { kUsed = 0, kMoving = 1, kBadIns = 2, kOutside = 3 };
 
 struct ViewerFrame {
   std::string name;
@@ -80,6 +81,10 @@ struct ViewerScene {
 ViewerScene viewer_scene(const FrameStore& store, const std::vector<std::size_t>& frames,
                          const std::vector<ViewerPlacing>& placings, const std::vector<TimeSpan>& excluded,
                          const PointMask* mask, const ViewerConfig& config);
+
+/// The points of frames whose sweep [t - period, t] (LiDAR clock + time_offset_s: INS clock) is not
+/// within one of `inside` made kOutside (a check's view: the drive beyond the stretches it used).
+void mark_outside(ViewerScene& scene, const std::vector<TimeSpan>& inside, double period_s, double time_offset_s);
 
 /// Several LiDARs' scenes (same extrinsic labels) as one, coloured by LiDAR in the browser.
 ViewerScene merge_scenes(std::vector<ViewerScene> scenes, const std::vector<std::string>& lidar_names);

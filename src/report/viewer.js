@@ -93,7 +93,8 @@
       gl_PointSize = size;
       float cls = a.z * 255.;
       if (cls > .5) {
-        colour = cls < 1.5 ? vec3(1., 0., 1.) : vec3(1., .55, 0.);  // moving: magenta; bad INS: orange
+        // moving: magenta; bad INS: orange; outside the stretches a check used: grey
+        colour = cls < 1.5 ? vec3(1., 0., 1.) : cls < 2.5 ? vec3(1., .55, 0.) : vec3(.62, .62, .62);
         if (showLeftOut < .5) gl_Position = vec4(2., 2., 2., 1.);  // outside the clip volume: not drawn
       } else if (mode == 0) {
         colour = ramp((p.z + centre.z - zRange.x) / max(zRange.y - zRange.x, 1e-3));
@@ -169,7 +170,7 @@
   };
 
   // ---- Drawing -------------------------------------------------------------------------------------
-  let pending = false;
+  let pending = false, draws = 0;
   const draw = () => {
     pending = false;
     const w = Math.round(canvas.clientWidth * (window.devicePixelRatio || 1)), h = Math.round(canvas.clientHeight * (window.devicePixelRatio || 1));
@@ -208,6 +209,9 @@
       }
       gl.disableVertexAttribArray(lp); gl.disableVertexAttribArray(lc);
     }
+    // The camera and a draw count in the DOM: what the browser test reads after real input events.
+    say("camera", [cam.yaw, cam.pitch, cam.dist, ...cam.target].map((v) => v.toFixed(4)).join(","));
+    say("draws", ++draws);
   };
   const redraw = () => { if (!pending) { pending = true; requestAnimationFrame(draw); } };
 
@@ -306,11 +310,12 @@
     const frame = framePerPoint[best], cls = attrib[4 * best + 2];
     info.textContent = `x ${p[0].toFixed(3)}  y ${p[1].toFixed(3)}  z ${p[2].toFixed(3)} m (world) · frame ${M.frame_names[frame]} ` +
       `(t = ${M.frame_times_s[frame].toFixed(3)} s)` + (M.lidars.length > 1 ? " · LiDAR " + M.lidars[attrib[4 * best + 1]] : "") +
-      (cls === 1 ? " · left out: moving thing" : cls === 2 ? " · left out: bad INS stretch" : "");
+      (cls === 1 ? " · left out: moving thing" : cls === 2 ? " · left out: bad INS stretch" :
+       cls === 3 ? " · outside the stretches the check used" : "");
     say("picked", best);
   };
 
-  // Initial state from the address (#extrinsic=0&colour=2&leftout=0&full&section=1&pick=x,y): for links and the browser test.
+  // Initial state from the address (#extrinsic=0&colour=2&leftout=0&full&section=1): for links and screenshots.
   const h = new URLSearchParams(location.hash.slice(1));
   if (h.has("extrinsic")) state.ext = Math.min(Number(h.get("extrinsic")), M.extrinsics.length - 1);
   if (h.has("colour")) state.mode = Number(h.get("colour")) % 3;
@@ -319,10 +324,6 @@
   if (h.has("section")) jump(Number(h.get("section")));
   update();
   draw();  // once now, so that a screenshot right after load shows the map
-  if (h.has("pick")) {  // a click at (x, y) canvas pixels, as a person would
-    const [x, y] = h.get("pick").split(",").map(Number), r = canvas.getBoundingClientRect();
-    pick({ clientX: r.left + x, clientY: r.top + y });
-  }
   say("load-ms", Math.round(performance.now() - t0));
   say("state", errors.length ? "error" : "ok");
 })();

@@ -1,6 +1,7 @@
 // The viewer's files: viewer.js (compiled in from viewer.js), viewer_data.js (the scene: a JSON
 // header and the quantised points in base64) and the HTML snippet that loads them.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -127,6 +128,19 @@ constexpr const char* kViewerStyle = R"(
 #insalign-viewer.viewer-full canvas { height: calc(100vh - 110px); }
 )";
 
+// The colours and marks this scene has, in words.
+std::string legend(const ViewerScene& s) {
+  const auto has = [&](ViewerPointClass c) { return std::find(s.point_class.begin(), s.point_class.end(), c) != s.point_class.end(); };
+  std::vector<std::string> parts;
+  if (has(ViewerPointClass::kOutside)) parts.emplace_back("grey: frames outside the stretches the check used");
+  if (has(ViewerPointClass::kMoving)) parts.emplace_back("magenta: moving things left out");
+  if (has(ViewerPointClass::kBadIns)) parts.emplace_back("orange: frames in a left-out INS stretch");
+  if (!s.trajectory_world.empty()) parts.emplace_back("black line: INS trajectory");
+  if (!s.fiducials.empty()) parts.emplace_back("red crosses: fiducials");
+  if (!s.sections.empty()) parts.emplace_back("boxes: the cross-sections (red wall, blue ground)");
+  return fmt::format("{}.", fmt::join(parts, "; "));
+}
+
 std::string snippet(const ViewerScene& s, const std::string& dir) {
   const std::string data = dir + "/viewer_data.js";
   std::string h = fmt::format("<style>{}</style>\n<div id=\"insalign-viewer\" data-src=\"{}\" data-fallback=\"{}\">\n",
@@ -149,10 +163,8 @@ std::string snippet(const ViewerScene& s, const std::string& dir) {
        "<div class=\"viewer-line viewer-info\">Click a point for its coordinates and frame. Drag: orbit; right-drag or "
        "shift-drag: pan; wheel: zoom.</div>\n";
   const double every = s.size() ? static_cast<double>(s.points_total) / static_cast<double>(s.size()) : 0.0;
-  h += fmt::format("<div class=\"viewer-line\">{} of {} points shown{} (config report.viewer_points) from {} frames; magenta: moving "
-                   "things left out, orange: frames in a left-out INS stretch; black line: INS trajectory; red crosses: "
-                   "fiducials; boxes: the cross-sections (red wall, blue ground).</div>\n",
-                   s.size(), s.points_total, every > 1.05 ? fmt::format(" (every {:.0f}th)", every) : "", s.frames.size());
+  h += fmt::format("<div class=\"viewer-line\">{} of {} points shown{} (config report.viewer_points) from {} frames; {}</div>\n",
+                   s.size(), s.points_total, every > 1.05 ? fmt::format(" (every {:.0f}th)", every) : "", s.frames.size(), legend(s));
   h += "</div>\n<div id=\"viewer-status\" hidden data-state=\"loading\"></div>\n</div>\n";
   h += fmt::format("<script src=\"{}\"></script>\n<script src=\"{}/viewer.js\"></script>\n", html_escape(data), html_escape(dir));
   return h;

@@ -82,6 +82,17 @@ ViewerScene viewer_scene(const FrameStore& store, const std::vector<std::size_t>
   return scene;
 }
 
+void mark_outside(ViewerScene& scene, const std::vector<TimeSpan>& inside, double period_s, double time_offset_s) {
+  std::vector<char> outside(scene.frames.size());
+  for (std::size_t f = 0; f < scene.frames.size(); ++f) {
+    const double t1 = scene.frames[f].t_s + time_offset_s, t0 = t1 - period_s;
+    outside[f] = std::none_of(inside.begin(), inside.end(), [&](const TimeSpan& s) { return s.begin_s <= t0 && t1 <= s.end_s; });
+  }
+  if (scene.point_class.empty()) scene.point_class.assign(scene.size(), ViewerPointClass::kUsed);
+  for (std::size_t i = 0; i < scene.size(); ++i)
+    if (outside[scene.frame[i]]) scene.point_class[i] = ViewerPointClass::kOutside;
+}
+
 ViewerScene merge_scenes(std::vector<ViewerScene> scenes, const std::vector<std::string>& lidar_names) {
   ViewerScene out;
   if (scenes.empty()) return out;
