@@ -112,7 +112,8 @@ class Browser {
     const std::string text = msg.dump() + '\0';
     if (::write(write_fd_, text.data(), text.size()) != static_cast<ssize_t>(text.size()))
       throw std::runtime_error("chromium is gone (" + method + ")");
-    const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+    const auto until = std::chrono::steady_clock::now() +
+                       std::chrono::duration_cast<std::chrono::steady_clock::duration>(std::chrono::duration<double>(timeout_s));
     for (;;) {
       const nlohmann::json reply = next_message(until, method);
       if (reply.contains("id") && reply["id"] == id_) {

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
@@ -21,16 +23,19 @@ using nlohmann::json;
 
 constexpr std::size_t kMaxTrajectoryPoints = 4000;  // a line, not a data set: enough to follow the drive
 
+// In parallel over 3-byte groups (tens of MB for a full view: the report must not wait on it).
 std::string base64(const std::string& bytes) {
   static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((bytes.size() + 2) / 3 * 4);
-  for (std::size_t i = 0; i < bytes.size(); i += 3) {
-    const std::size_t n = std::min<std::size_t>(3, bytes.size() - i);
-    std::uint32_t v = 0;
-    for (std::size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<std::uint8_t>(bytes[i + k]) : 0u);
-    for (std::size_t k = 0; k < 4; ++k) out += k <= n ? kAlphabet[(v >> (18 - 6 * k)) & 63] : '=';
-  }
+  const std::size_t groups = (bytes.size() + 2) / 3;
+  std::string out(groups * 4, '=');
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t g = r.begin(); g < r.end(); ++g) {
+      const std::size_t i = 3 * g, n = std::min<std::size_t>(3, bytes.size() - i);
+      std::uint32_t v = 0;
+      for (std::size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<std::uint8_t>(bytes[i + k]) : 0u);
+      for (std::size_t k = 0; k <= n; ++k) out[4 * g + k] = kAlphabet[(v >> (18 - 6 * k)) & 63];
+    }
+  });
   return out;
 }
 
@@ -101,18 +106,21 @@ json meta_json(const ViewerScene& s, const Box& box, const std::vector<std::uint
           {"frame_names", frames_name}, {"trajectory_m", trajectory}, {"fiducials", fiducials}, {"sections", sections}};
 }
 
-// Each placing's points as uint16 x y z (little-endian) over the box, in run order.
+// Each placing's points as uint16 x y z (little-endian) over the box, in run order (in parallel).
 std::string point_bytes(const ViewerScene& s, const Box& box, const std::vector<std::uint32_t>& order) {
   std::string out(s.p_world.size() * order.size() * 6, '\0');
-  auto* w = reinterpret_cast<unsigned char*>(out.data());
-  for (const auto& points : s.p_world)
-    for (std::uint32_t i : order)
-      for (int a = 0; a < 3; ++a) {
-        const double q = std::round((points[i][a] - box.min_m[a]) / box.scale_m[a]);
-        const auto v = static_cast<std::uint16_t>(std::clamp(q, 0.0, 65535.0));
-        *w++ = static_cast<unsigned char>(v & 0xff);
-        *w++ = static_cast<unsigned char>(v >> 8);
-      }
+  auto* bytes = reinterpret_cast<unsigned char*>(out.data());
+  for (std::size_t e = 0; e < s.p_world.size(); ++e)
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, order.size(), 1 << 14), [&](const tbb::blocked_range<std::size_t>& r) {
+      unsigned char* w = bytes + (e * order.size() + r.begin()) * 6;
+      for (std::size_t k = r.begin(); k < r.end(); ++k)
+        for (int a = 0; a < 3; ++a) {
+          const double q = std::round((s.p_world[e][order[k]][a] - box.min_m[a]) / box.scale_m[a]);
+          const auto v = static_cast<std::uint16_t>(std::clamp(q, 0.0, 65535.0));
+          *w++ = static_cast<unsigned char>(v & 0xff);
+          *w++ = static_cast<unsigned char>(v >> 8);
+        }
+    });
   return out;
 }
 
