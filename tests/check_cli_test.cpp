@@ -80,6 +80,7 @@ TEST(CheckCli, UnchangedExtrinsicIsNeverDriftedAndOkWithTzUnchecked) {
   EXPECT_EQ(verdict(c, "tz"), "not-observable");
   EXPECT_FALSE(fs::exists(out / "a" / "corrected"));
   EXPECT_TRUE(fs::exists(out / "a" / "check.html"));
+  EXPECT_TRUE(fs::exists(out / "a" / "report" / "viewer_data.js"));  // its 3D view (docs/viewer.md)
   EXPECT_EQ(c.out["drives"], 1);
   EXPECT_FALSE(c.out["used"].empty());
   for (const char* key : {"checked", "corrected", "since", "warnings"}) EXPECT_TRUE(c.out.contains(key)) << key;
