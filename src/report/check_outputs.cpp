@@ -243,8 +243,8 @@ std::string check_html(const std::vector<LidarCheck>& lidars, const std::string&
     s += "<h2>The map in 3D</h2>\n<p>The drive's map at the installed and at the corrected extrinsic: press <kbd>B</kbd> "
          "to switch (the camera stays), <kbd>C</kbd> to colour by frame time" +
          std::string(lidars.size() > 1 ? " or by LiDAR" : "") +
-         ". In colour: the stretches the check used; grey: the drive beyond them (<kbd>L</kbd> hides it with the "
-         "left-out points).</p>\n" + viewer_html;
+         ". In colour: sweeps of the stretches the check used; in grey, where the check used part of the drive, sweeps "
+         "beyond them (<kbd>L</kbd> hides these and the left-out points).</p>\n" + viewer_html;
   s += lidars.size() > 1 ? "<h2>How the drive measured it</h2>\n" : "";
   for (const LidarCheck& l : lidars) s += lidar_details_html(l);
   return s + "</body></html>\n";

@@ -172,7 +172,7 @@ std::string snippet(const ViewerScene& s, const std::string& dir) {
        "shift-drag: pan; wheel: zoom.</div>\n";
   const double every = s.size() ? static_cast<double>(s.points_total) / static_cast<double>(s.size()) : 0.0;
   h += fmt::format("<div class=\"viewer-line\">{} of {} points shown{} (config report.viewer_points) from {} frames; {}</div>\n",
-                   s.size(), s.points_total, every > 1.05 ? fmt::format(" (every {:.0f}th)", every) : "", s.frames.size(), legend(s));
+                   s.size(), s.points_total, every > 1.05 ? fmt::format(" (1 in {:.0f})", every) : "", s.frames.size(), legend(s));
   h += "</div>\n<div id=\"viewer-status\" hidden data-state=\"loading\"></div>\n</div>\n";
   h += fmt::format("<script src=\"{}\"></script>\n<script src=\"{}/viewer.js\"></script>\n", html_escape(data), html_escape(dir));
   return h;
