@@ -288,9 +288,6 @@ TEST(ViewerBrowser, ReportFromFileDrawsSwitchesTogglesOrbitsPansZoomsAndPicks) {
   EXPECT_EQ(v.status().value("extrinsic", ""), "start");
   EXPECT_GT(differing(before, after), 0.01) << "start and final look the same";
   const Shot back = v.after([](B& b) { b.key("b"); });
-  if (const char* d = std::getenv("INSALIGN_VIEWER_DEBUG")) {
-    std::ofstream(std::string(d) + "/back.png", std::ios::binary) << v.browser.screenshot_png();
-  }
   EXPECT_LT(differing(back, after), 0.002) << "the camera moved with the switch";
   EXPECT_GT(differing(v.after([](B& b) { b.key("c"); }), after), 0.01) << "colour by frame time changed nothing";
   EXPECT_EQ(v.status().value("mode", ""), "frame time");
