@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 rows=${1:-100}
 jobs=${2:-2}
 rounds=${3:-3}
-exe=$PWD/build/src/insalign
+exe=${INSALIGN:-$PWD/build/src/insalign}
 work=${FLEET_BENCH_DIR:-/tmp/insalign-fleet-overhead}
 rm -rf "$work"
 mkdir -p "$work"
