@@ -6,7 +6,8 @@
 # about 0.6 CPU-s each), four recordings shared by the rows. INSALIGN=path picks the binary
 # (default build/src/insalign). Prints one line per mode: wall, CPU (user+sys of the processes
 # this script waits for; Slurm's tasks run under slurmd and are not counted), rows per hour, and
-# with direct the overhead per task = (engine wall - direct wall) * JOBS / ROWS.
+# with direct the overhead per task = (engine wall - direct wall) * JOBS / ROWS, and for each
+# engine the slots' idle time per row from its own status records (bench/fleet_slots.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rows=${1:-100}
@@ -67,4 +68,5 @@ for mode in $modes; do
       done_rows=$(grep -oE '[0-9]+ done' "$work/slurm.log" | head -1) ;;
   esac
   report "$mode" "$wall" "$cpu" "${done_rows% done}"
+  [[ $mode == direct ]] || bash bench/fleet_slots.sh "$work/$mode" "$jobs"
 done

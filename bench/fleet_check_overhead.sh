@@ -5,6 +5,8 @@
 # three interleaved in each of ROUNDS rounds so that the machine's load affects all alike.
 #   bash bench/fleet_check_overhead.sh [ROWS] [JOBS] [ROUNDS]    (defaults 4, 2, 2; Slurm needs SLURM_CONF or root)
 # overhead per task = (engine wall - direct wall) * JOBS / ROWS; share = that / (direct wall * JOBS / ROWS).
+# On a shared machine whose load changes between the runs that difference is mostly the load; each
+# engine's run is therefore also measured from its own status records (bench/fleet_slots.sh).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 rows=${1:-4}
@@ -53,4 +55,5 @@ for ((r = 1; r <= rounds; ++r)); do
   printf "%5d  %8.1f  %7.1f  %7s  %15.1f  %23s  %23s\n" "$r" "$direct" "$local_s" "$slurm_s" \
     "$(awk -v d="$direct" -v j="$jobs" -v n="$rows" 'BEGIN { print d * j / n }')" "$(share "$local_s" "$direct")" "$slurm_o"
   grep -hE '^[0-9]+ rows' "$work/local.log" "$work/slurm.log" 2>/dev/null | sed 's/^/       /'
+  for e in local slurm; do [[ -d $work/$e ]] && bash bench/fleet_slots.sh "$work/$e" "$jobs" | sed 's/^/       /'; done
 done
