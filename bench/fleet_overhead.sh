@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 rows=${1:-100}
 jobs=${2:-2}
 rounds=${3:-3}
-exe=$PWD/build/src/insalign
+exe=${INSALIGN:-$PWD/build/src/insalign}
 work=${FLEET_BENCH_DIR:-/tmp/insalign-fleet-overhead}
 rm -rf "$work"
 mkdir -p "$work"
@@ -47,4 +47,5 @@ for ((r = 1; r <= rounds; ++r)); do
     slurm_o=$(overhead "$slurm_s" "$direct")
   fi
   printf "%5d  %8.2f  %7.2f  %7s  %25s  %25s\n" "$r" "$direct" "$local_s" "$slurm_s" "$(overhead "$local_s" "$direct")" "$slurm_o"
+  for e in local slurm; do [[ -d $work/$e ]] && bash bench/fleet_slots.sh "$work/$e" "$jobs" | sed 's/^/       /'; done
 done

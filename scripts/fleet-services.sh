@@ -21,8 +21,11 @@ fleet_start_munge() {
   return 1
 }
 
+# batch_sched_delay=0: a batch job (an array task) is scheduled as soon as a slot frees, not up to
+# 3 s later (Slurm's default): with many short rows that wait is most of the engine's overhead
+# (bench/results/fleet.md). FLEET_SLURM_SCHEDULER_PARAMETERS= (empty) keeps Slurm's defaults.
 fleet_write_slurm_conf() {
-  local d=$1 host cpus mem
+  local d=$1 host cpus mem sched=${FLEET_SLURM_SCHEDULER_PARAMETERS-batch_sched_delay=0}
   host=$(hostname -s)
   cpus=$(nproc)
   mem=$(( $(awk '/MemTotal/ {print int($2/1024)}' /proc/meminfo) * 8 / 10 ))
@@ -54,7 +57,7 @@ AccountingStorageType=accounting_storage/none
 JobAcctGatherType=jobacct_gather/none
 MinJobAge=3600
 KillWait=5
-SchedulerParameters=defer_batch=0
+${sched:+SchedulerParameters=$sched}
 SlurmctldTimeout=30
 SlurmdTimeout=60
 NodeName=$host CPUs=$cpus RealMemory=$mem State=UNKNOWN

@@ -82,17 +82,27 @@ int run_task(const FleetOptions& o) {
   return s.exit_code > 128 ? s.exit_code : kExitOk;
 }
 
+void ingest_into(const fs::path& results, fleet::SqlConnection& db) {
+  const fleet::IngestSummary s = fleet::ingest_results(results, db);
+  fmt::print("ingested {}: {} new, {} replaced, {} unchanged\n", results.string(), s.inserted, s.replaced, s.unchanged);
+  for (const std::string& why : s.unreadable) fmt::print(stderr, "warning: skipped {}\n", why);
+}
+
 int run_ingest(const FleetOptions& o) {
   const fs::path results = fs::absolute(o.results);
   std::unique_ptr<fleet::SqlConnection> db = fleet::open_database(o.db, results);
-  const fleet::IngestSummary s = fleet::ingest_results(results, *db);
-  fmt::print("ingested {}: {} new, {} replaced, {} unchanged\n", results.string(), s.inserted, s.replaced, s.unchanged);
-  for (const std::string& why : s.unreadable) fmt::print(stderr, "warning: skipped {}\n", why);
+  ingest_into(results, *db);
   return kExitOk;
 }
 
 int run_report(const FleetOptions& o) {
   const fs::path out = fs::absolute(o.out);
+  // The default history lives in the results folder: a report of a results folder loads its rows
+  // first (ingest is idempotent), so that manifest, run and report are a whole fleet.
+  if (o.db.empty() && !fleet::find_status_files(out).empty()) {
+    std::unique_ptr<fleet::SqlConnection> db = fleet::open_database(o.db, out);
+    ingest_into(out, *db);
+  }
   if (o.db.empty() && !fs::exists(out / "fleet.sqlite"))  // not created empty by asking
     throw InputError((out / "fleet.sqlite").string(), "", "no fleet history (run fleet ingest --results " + out.string() + " first, or give --db)");
   std::unique_ptr<fleet::SqlConnection> db = fleet::open_database(o.db, out);
@@ -150,7 +160,8 @@ Command make_fleet_command() {
             ingest->callback([which] { *which = 3; });
             CLI::App* report = fleet_app->add_subcommand("report", "write the fleet dashboard, fleet.json and fleet.html");
             report->add_option("--db", o->db, "sqlite:PATH or postgresql://... (default sqlite:OUT/fleet.sqlite)");
-            report->add_option("--out", o->out, "folder for fleet.json and fleet.html")->required();
+            report->add_option("--out", o->out, "folder for fleet.json and fleet.html (a results folder: its rows are ingested first, without --db)")
+                ->required();
             report->callback([which] { *which = 4; });
             return fleet_app;
           },

@@ -151,6 +151,8 @@ IngestSummary ingest_results(const fs::path& results, SqlConnection& db) {
       loaded.push_back({run_from_status(s, results), extrinsics_from_outputs(s, results)});
     } catch (const InputError& e) {
       summary.unreadable.push_back(e.what());
+    } catch (const json::exception& e) {  // a check.json of another shape: skipped with the reason, never the ingest
+      summary.unreadable.push_back(file.string() + ": " + e.what());
     }
   }
   ExclusiveTransaction tx(db);

@@ -14,7 +14,8 @@
 namespace insalign::testing {
 namespace {
 
-// Car A twice on one mount, car B before and after a knock, car C with a corrupt recording.
+// Car A calibrated twice on one mount then checked (a real check: ok), car B calibrated before
+// and after a knock, car C with a corrupt recording.
 const fs::path& fleet_results() {
   static const fs::path results = [] {
     const FleetDrives& d = fleet_drives();
@@ -22,7 +23,8 @@ const fs::path& fleet_results() {
                                                                         calibrate_row("carA", "2026-01-08", "a") +
                                                                         calibrate_row("carB", "2026-01-01", "b") +
                                                                         calibrate_row("carB", "2026-01-15", "b-knocked") +
-                                                                        calibrate_row("carC", "2026-01-02", "corrupt"));
+                                                                        calibrate_row("carC", "2026-01-02", "corrupt") +
+                                                                        check_row(d.dir, "carA", "2026-01-22", "u1"));
     const fs::path r = fresh_dir("insalign_fleet_history", "");
     const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + r.string() + " --jobs 2");
     EXPECT_EQ(rc, 1) << out;  // carC fails
@@ -36,21 +38,27 @@ TEST(FleetHistory, SqliteIngestIsIdempotentAndReplacesNewerAttempts) {
   const fs::path db_path = fresh_dir("insalign_fleet_sqlite", "") / "fleet.sqlite";
   auto db = fleet::open_sqlite(db_path);
   fleet::IngestSummary first = fleet::ingest_results(results, *db);
-  EXPECT_EQ(first.inserted, 5);
+  EXPECT_EQ(first.inserted, 6);
   EXPECT_TRUE(first.unreadable.empty());
   const auto runs = fleet::load_runs(*db);
   const auto extrinsics = fleet::load_extrinsics(*db);
-  ASSERT_EQ(runs.size(), 5u);
-  EXPECT_EQ(extrinsics.size(), 4u);  // one per done calibration, none for the failed row
+  ASSERT_EQ(runs.size(), 6u);
+  EXPECT_EQ(extrinsics.size(), 5u);  // one per done calibration and check, none for the failed row
   EXPECT_EQ(fleet::schema_version(*db), fleet::kSchemaVersion);
   for (const auto& r : runs) {
-    EXPECT_EQ(r.verdict, r.car == "carC" ? "failed" : "calibrated") << r.id;
+    EXPECT_EQ(r.verdict, r.car == "carC" ? "failed" : r.kind == "check" ? "ok" : "calibrated") << r.id;
     if (r.car == "carC") EXPECT_TRUE(contains(r.error, "line 20")) << r.error;
-    else EXPECT_TRUE(contains(r.report, "report.html")) << r.report;
+    else EXPECT_TRUE(contains(r.report, r.kind == "check" ? "check.html" : "report.html")) << r.report;
+  }
+  for (const auto& e : extrinsics) {  // the check's per-DOF corrections and verdicts are stored
+    if (e.run_id != "carA/2026-01-22-check") continue;
+    EXPECT_EQ(e.dof_verdict[5], "ok");
+    ASSERT_TRUE(e.correction[5].has_value());
+    EXPECT_LT(std::abs(*e.correction[5]), 0.05);
   }
   const fleet::IngestSummary again = fleet::ingest_results(results, *db);
   EXPECT_EQ(again.inserted + again.replaced, 0);
-  EXPECT_EQ(again.unchanged, 5);
+  EXPECT_EQ(again.unchanged, 6);
   EXPECT_EQ(fleet::load_runs(*db), runs);
   EXPECT_EQ(fleet::load_extrinsics(*db), extrinsics);
 
@@ -63,7 +71,7 @@ TEST(FleetHistory, SqliteIngestIsIdempotentAndReplacesNewerAttempts) {
   const fleet::IngestSummary newer = fleet::ingest_results(results, *db);
   std::ofstream(status) << original;
   EXPECT_EQ(newer.replaced, 1);
-  EXPECT_EQ(fleet::load_runs(*db).size(), 5u);
+  EXPECT_EQ(fleet::load_runs(*db).size(), 6u);
 }
 
 TEST(FleetHistory, SchemaMigratesFromVersion1KeepingItsRows) {
@@ -101,8 +109,9 @@ TEST(FleetHistory, DashboardFlagsTheKnockedCarAndListsTheFailedRow) {
     if (car["car"] == "carA") {
       EXPECT_FALSE(car["needs_recalibration"].get<bool>());
       EXPECT_TRUE(car["knocks"].empty());
-      EXPECT_EQ(car["latest"]["date"], "2026-01-08");
-      EXPECT_EQ(car["latest"]["report"], (fs::relative(results, out) / "carA/2026-01-08-calibrate/report.html").string());
+      EXPECT_EQ(car["state"], "ok");  // its latest run, the check
+      EXPECT_EQ(car["latest"]["date"], "2026-01-22");
+      EXPECT_EQ(car["latest"]["report"], (fs::relative(results, out) / "carA/2026-01-22-check/check.html").string());
     }
     if (car["car"] == "carC") EXPECT_EQ(car["state"], "failed");
   }
@@ -135,18 +144,18 @@ TEST(FleetHistory, PostgresConcurrentIngestsGiveTheSameRowsAsSqlite) {
   int inserted = 0;
   for (const auto& [rc, out] : outcomes) {
     EXPECT_EQ(rc, 0) << out;
-    inserted += contains(out, "5 new") ? 1 : 0;
+    inserted += contains(out, "6 new") ? 1 : 0;
   }
   EXPECT_EQ(inserted, 1);  // one ingest stored the rows; the other three found them there
   auto pg = fleet::open_postgres(db_url);
   auto sqlite = fleet::open_sqlite(fresh_dir("insalign_fleet_pg_vs", "") / "fleet.sqlite");
   fleet::ingest_results(results, *sqlite);
   const auto runs = fleet::load_runs(*pg);
-  EXPECT_EQ(runs.size(), 5u);
+  EXPECT_EQ(runs.size(), 6u);
   EXPECT_EQ(runs, fleet::load_runs(*sqlite));
   EXPECT_EQ(fleet::load_extrinsics(*pg), fleet::load_extrinsics(*sqlite));
   const fleet::IngestSummary again = fleet::ingest_results(results, *pg);
-  EXPECT_EQ(again.unchanged, 5);
+  EXPECT_EQ(again.unchanged, 6);
   EXPECT_EQ(fleet::load_runs(*pg), runs);
   pg.reset();
   admin->query("DROP DATABASE " + name, {});

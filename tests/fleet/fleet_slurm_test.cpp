@@ -1,6 +1,8 @@
-// A fleet on a real single-node Slurm cluster (scripts/fleet-services.sh): 13 rows of small drives
-// over five cars, a knock on car B, a corrupt recording, and one task cancelled mid-run with
-// scancel. Every other row is done exactly once; the cancelled one is failed, then retried.
+// A fleet on a real single-node Slurm cluster (scripts/fleet-services.sh): 13 rows, 12 of them real
+// `insalign check`s of small simulated city drives over five cars and several dates, car B knocked
+// from its second date on, one corrupt recording, one calibration, and one task cancelled mid-run
+// with scancel. Every other row is done exactly once; the cancelled one is failed, then retried;
+// the dashboard flags car B from the checks and dates its knock.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -14,8 +16,6 @@
 namespace insalign::testing {
 namespace {
 
-fleet::ManifestRow row_of(const std::string& car, const std::string& date) { return {car, date, "calibrate", "", "", "", 0}; }
-
 bool running(const fs::path& car_dir, const std::string& stem) {
   std::error_code ec;
   for (const auto& e : fs::directory_iterator(car_dir, ec))
@@ -28,18 +28,24 @@ std::string array_job_id() {
   return rc == 0 ? out.substr(0, out.find_first_of(" \n")) : "";
 }
 
-TEST(FleetSlurm, ArrayJobWithAKnockACorruptRecordingAndACancelledTask) {
+struct Row {
+  std::string car, date, kind, drive;
+};
+
+fleet::ManifestRow row_of(const Row& r) { return {r.car, r.date, r.kind, "", "", "", 0}; }
+
+TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
   if (std::getenv("INSALIGN_TEST_SLURM") == nullptr)
     GTEST_SKIP() << "INSALIGN_TEST_SLURM is not set (scripts/test.sh starts a single-node Slurm cluster and sets it)";
   const FleetDrives& d = fleet_drives();
-  const std::vector<std::tuple<std::string, std::string, std::string>> rows{
-      {"carA", "2026-01-01", "a"},         {"carA", "2026-01-08", "a"}, {"carA", "2026-01-15", "a"},
-      {"carB", "2026-01-01", "b"},         {"carB", "2026-01-08", "b"}, {"carB", "2026-01-15", "b-knocked"},
-      {"carB", "2026-01-22", "b-knocked"}, {"carC", "2026-01-01", "b"}, {"carC", "2026-01-08", "b"},
-      {"carD", "2026-01-01", "a"},         {"carD", "2026-01-08", "corrupt"}, {"carE", "2026-01-01", "a"},
-      {"carE", "2026-01-08", "a"}};
+  const std::vector<Row> rows{
+      {"carA", "2026-01-01", "check", "u1"}, {"carA", "2026-01-08", "check", "u2"}, {"carA", "2026-01-15", "check", "u1"},
+      {"carB", "2026-01-01", "check", "u2"}, {"carB", "2026-01-08", "check", "k1"}, {"carB", "2026-01-15", "check", "k2"},
+      {"carC", "2026-01-01", "check", "u1"}, {"carC", "2026-01-08", "check", "u2"}, {"carD", "2026-01-01", "check", "u2"},
+      {"carD", "2026-01-08", "check", "u1-corrupt"}, {"carE", "2026-01-01", "calibrate", "a"},
+      {"carE", "2026-01-08", "check", "u1"}, {"carF", "2026-01-01", "check", "u3"}};
   std::string text;
-  for (const auto& [car, date, drive] : rows) text += calibrate_row(car, date, drive);
+  for (const Row& r : rows) text += r.kind == "check" ? check_row(d.dir, r.car, r.date, r.drive) : calibrate_row(r.car, r.date, r.drive);
   const fs::path manifest = write_manifest(d.dir / "slurm.csv", text);
   const fs::path results = fresh_dir("insalign_fleet_slurm", "");
   const std::string run = exe() + " fleet run " + manifest.string() + " --results " + results.string() +
@@ -49,41 +55,49 @@ TEST(FleetSlurm, ArrayJobWithAKnockACorruptRecordingAndACancelledTask) {
   std::pair<int, std::string> first;
   std::thread fleet_run([&] { first = run_command(run); });
   bool cancelled = false;
-  for (int i = 0; i < 1200 && !cancelled; ++i) {
+  for (int i = 0; i < 2400 && !cancelled; ++i) {
     std::this_thread::sleep_for(std::chrono::milliseconds(50));
     const std::string job = array_job_id();
-    if (!job.empty() && running(results / "carA", "2026-01-01-calibrate"))
-      cancelled = run_command("scancel " + job + "_0").first == 0;
+    if (!job.empty() && running(results / "carA", "2026-01-01-check")) cancelled = run_command("scancel " + job + "_0").first == 0;
   }
   fleet_run.join();
   ASSERT_TRUE(cancelled) << first.second;
   EXPECT_EQ(first.first, 1) << first.second;
-  EXPECT_TRUE(contains(first.second, "carA/2026-01-01-calibrate: CANCELLED")) << first.second;
+  EXPECT_TRUE(contains(first.second, "carA/2026-01-01-check: CANCELLED")) << first.second;
   const std::string script = io::read_file(results / "slurm" / "fleet.sbatch");
   EXPECT_TRUE(contains(script, "#SBATCH --array=0-12%2")) << script;
   EXPECT_TRUE(contains(script, "#SBATCH --requeue"));
   EXPECT_TRUE(contains(script, "#SBATCH --time="));
   EXPECT_TRUE(contains(script, "#SBATCH --mem="));
   EXPECT_TRUE(contains(script, "logs/%A_%a.out"));
-  const auto cancelled_status = fleet::read_status(results, row_of("carA", "2026-01-01"));
+  const auto cancelled_status = fleet::read_status(results, row_of(rows[0]));
   if (cancelled_status) {  // SIGTERM reached the task: it recorded the signal
     EXPECT_EQ(cancelled_status->exit_code, 143);
     EXPECT_TRUE(contains(cancelled_status->error, "SIGTERM")) << cancelled_status->error;
   }
-  EXPECT_FALSE(fs::exists(results / "carA" / "2026-01-01-calibrate"));  // no partial result
+  EXPECT_FALSE(fs::exists(results / "carA" / "2026-01-01-check"));  // no partial result
   std::map<std::string, std::string> started;
   for (std::size_t i = 1; i < rows.size(); ++i) {
-    const auto& [car, date, drive] = rows[i];
-    const auto s = fleet::read_status(results, row_of(car, date));
-    ASSERT_TRUE(s.has_value()) << car << " " << date;
+    const Row& r = rows[i];
+    const auto s = fleet::read_status(results, row_of(r));
+    ASSERT_TRUE(s.has_value()) << r.car << " " << r.date;
     EXPECT_EQ(s->attempts, 1) << s->id;
     started[s->id] = s->started;
-    if (drive == "corrupt") {
+    const fs::path out = results / r.car / (r.date + "-" + r.kind);
+    if (r.drive == "u1-corrupt") {
       EXPECT_EQ(s->exit_code, 2);
-      EXPECT_TRUE(contains(s->error, "corrupt/poses.txt") && contains(s->error, "line 20")) << s->error;
-    } else {
+      EXPECT_TRUE(contains(s->error, "u1-corrupt/poses_tum.txt") && contains(s->error, "line 20")) << s->error;
+      EXPECT_FALSE(fs::exists(out));
+    } else if (r.kind == "calibrate") {
       EXPECT_EQ(s->exit_code, 0) << s->id << ": " << s->error;
-      EXPECT_TRUE(fs::exists(results / car / (date + "-calibrate") / "extrinsic.json"));
+      EXPECT_TRUE(fs::exists(out / "extrinsic.json"));
+    } else {  // the real check's verdict: recalibrate (exit 4) on the knocked drives, ok (exit 0) or inconclusive (3)
+      const std::string expected = r.drive[0] == 'k' ? "recalibrate" : r.drive == "u3" ? "inconclusive" : "ok";
+      EXPECT_EQ(s->exit_code, expected == "recalibrate" ? 4 : expected == "ok" ? 0 : 3) << s->id << ": " << s->error;
+      ASSERT_TRUE(fs::exists(out / "check.json")) << s->id;
+      const nlohmann::json c = nlohmann::json::parse(io::read_file(out / "check.json"));
+      EXPECT_EQ(c["verdict"], expected) << s->id << ": " << c["message"];
+      if (expected == "recalibrate") EXPECT_EQ(c["dofs"]["yaw"]["verdict"], "drifted") << s->id;
     }
   }
   EXPECT_FALSE(fs::is_empty(results / "slurm" / "logs"));
@@ -91,27 +105,32 @@ TEST(FleetSlurm, ArrayJobWithAKnockACorruptRecordingAndACancelledTask) {
   // Run again: only the cancelled and the failed rows are submitted; the cancelled one is done now.
   const auto [rc2, out2] = run_command(run);
   EXPECT_EQ(rc2, 1) << out2;  // the corrupt recording still fails
-  EXPECT_TRUE(contains(io::read_file(results / "slurm" / "fleet.sbatch"), "#SBATCH --array=0,10%2"));
-  const auto retried = fleet::read_status(results, row_of("carA", "2026-01-01"));
+  EXPECT_TRUE(contains(io::read_file(results / "slurm" / "fleet.sbatch"), "#SBATCH --array=0,9%2"));
+  const auto retried = fleet::read_status(results, row_of(rows[0]));
   ASSERT_TRUE(retried.has_value());
   EXPECT_EQ(retried->exit_code, 0) << retried->error;
   EXPECT_EQ(retried->attempts, 2);
   for (std::size_t i = 1; i < rows.size(); ++i) {
-    const auto& [car, date, drive] = rows[i];
-    const auto s = fleet::read_status(results, row_of(car, date));
-    if (drive != "corrupt") EXPECT_EQ(s->started, started[s->id]) << "done exactly once: " << s->id;
+    const auto s = fleet::read_status(results, row_of(rows[i]));
+    if (rows[i].drive != "u1-corrupt") EXPECT_EQ(s->started, started[s->id]) << "done exactly once: " << s->id;
   }
 
-  const auto [rc3, out3] = run_command(exe() + " fleet ingest --results " + results.string() + " && " + exe() +
-                                       " fleet report --out " + results.string());
+  // The report of the results folder ingests its rows (sqlite:DIR/fleet.sqlite), then reports.
+  const auto [rc3, out3] = run_command(exe() + " fleet report --out " + results.string());
   ASSERT_EQ(rc3, 0) << out3;
+  EXPECT_TRUE(contains(out3, "13 new")) << out3;
   const nlohmann::json j = nlohmann::json::parse(io::read_file(results / "fleet.json"));
   EXPECT_EQ(j["cars_needing_recalibration"], 1);
   EXPECT_EQ(j["cars"][0]["car"], "carB");
-  ASSERT_FALSE(j["cars"][0]["knocks"].empty());
-  EXPECT_EQ(j["cars"][0]["knocks"][0]["date"], "2026-01-15");
+  EXPECT_EQ(j["cars"][0]["state"], "recalibrate");
+  ASSERT_EQ(j["cars"][0]["knocks"].size(), 1u);
+  EXPECT_EQ(j["cars"][0]["knocks"][0]["date"], "2026-01-08");
+  EXPECT_EQ(j["cars"][0]["knocks"][0]["after"], "2026-01-01");
+  EXPECT_TRUE(contains(j["cars"][0]["knocks"][0]["what"].get<std::string>(), "yaw +0.")) << j["cars"][0]["knocks"][0];
+  for (const auto& car : j["cars"])  // the unchanged cars: their latest check's verdict
+    if (car["car"] != "carB") EXPECT_EQ(car["state"], car["car"] == "carF" ? "inconclusive" : "ok") << car;
   ASSERT_EQ(j["failed"].size(), 1u);
-  EXPECT_EQ(j["failed"][0]["id"], "carD/2026-01-08-calibrate");
+  EXPECT_EQ(j["failed"][0]["id"], "carD/2026-01-08-check");
   EXPECT_TRUE(contains(j["failed"][0]["error"].get<std::string>(), "line 20"));
   EXPECT_EQ(j["runs"].size(), rows.size());
 }
