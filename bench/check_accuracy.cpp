@@ -9,10 +9,17 @@
 // not call them `not-observable`. Coverage: |correction - truth| within 3 stated stddev, per DOF
 // with a finite stddev, the time offset included (the installed offset is the true one).
 // Prints a row per drive and the tables every --tables-every drives (cumulative) and at the end.
+// A run split over processes (--first, --drives, --threads 1, --jsonl) is tabled with --from-jsonl.
 //
 //   build/bench/check_accuracy --drives 100 --duration-s 180 --azimuth-step-deg 0.8
+//   build/bench/check_accuracy --first 0 --drives 50 --threads 1 --jsonl a.jsonl   (and 50..99 into b.jsonl)
+//   build/bench/check_accuracy --from-jsonl a.jsonl b.jsonl
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <tbb/global_control.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <array>
@@ -20,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 
 #include "core/check_run.hpp"
 #include "sim/random.hpp"
@@ -35,6 +43,9 @@ struct Options {
   double duration_s = 180.0;
   double azimuth_step_deg = 0.8;
   int tables_every = 20;
+  int threads = 0;                     // 0: TBB's default
+  std::string jsonl;                   // append one JSON line per drive here
+  std::vector<std::string> from_jsonl; // only print the tables of these files' drives
 };
 
 const std::array<sim::TrajectoryKind, 4> kKinds{sim::TrajectoryKind::kCityLoop, sim::TrajectoryKind::kUrbanGrid,
@@ -97,7 +108,36 @@ struct Row {
   std::array<DofCheck, 7> dofs;
   Vec7 truth = Vec7::Zero();
   bool knocked = false;
+  std::map<std::string, std::string> levels;  // "drive type" -> "highway", "INS" -> "drift", ...
 };
+
+// A drive's row as one JSON line (--jsonl), so that runs split over processes can be tabled together.
+nlohmann::json row_json(const Row& r) {
+  nlohmann::json j{{"knocked", r.knocked}, {"levels", r.levels}};
+  for (int k = 0; k < 7; ++k) {
+    const DofCheck& c = r.dofs[k];
+    j["dofs"].push_back({{"correction", c.correction}, {"stddev", std::isfinite(c.stddev) ? nlohmann::json(c.stddev) : nlohmann::json()},
+                         {"verdict", enum_name(c.verdict)}, {"truth", r.truth(k)}});
+  }
+  return j;
+}
+
+Row row_from_json(const nlohmann::json& j) {
+  Row r;
+  r.knocked = j.at("knocked").get<bool>();
+  r.levels = j.at("levels").get<std::map<std::string, std::string>>();
+  for (int k = 0; k < 7; ++k) {
+    const nlohmann::json& d = j.at("dofs").at(static_cast<std::size_t>(k));
+    r.dofs[k].correction = d.at("correction").get<double>();
+    r.dofs[k].stddev = d.at("stddev").is_null() ? std::numeric_limits<double>::infinity() : d.at("stddev").get<double>();
+    r.dofs[k].verdict = d.at("verdict") == "ok" ? DofVerdictKind::kOk
+                        : d.at("verdict") == "drifted" ? DofVerdictKind::kDrifted : DofVerdictKind::kNotObservable;
+    r.truth(k) = d.at("truth").get<double>();
+  }
+  return r;
+}
+
+using Groups = std::map<std::string, std::map<std::string, Tally>>;  // "drive type", "INS", ... -> level -> tally
 
 void add(Tally& t, const Row& r) {
   ++t.drives;
@@ -147,7 +187,7 @@ void print_observability(const char* title, const std::map<std::string, Tally>& 
   }
 }
 
-void print_tables(const std::map<std::string, std::map<std::string, Tally>>& groups, const Tally& all) {
+void print_tables(const Groups& groups, const Tally& all) {
   fmt::print("\n### After {} drives ({} unchanged, {} knocked)\n", all.drives, all.unchanged, all.knocked);
   fmt::print("\nfalse alarms: {} of {} unchanged drives ({:.1f}%) had a DOF `drifted`\n", all.false_alarm_drives,
              all.unchanged, 100.0 * all.false_alarm_drives / std::max(1, all.unchanged));
@@ -170,9 +210,31 @@ std::string dof_list(const std::array<DofCheck, 7>& dofs, DofVerdictKind kind) {
   return out.empty() ? "-" : out;
 }
 
+void add_row(const Row& r, Groups& groups, Tally& all) {
+  add(all, r);
+  for (const auto& [factor_name, level] : r.levels) add(groups[factor_name][level], r);
+}
+
+int tables_from_jsonl(const Options& o) {
+  Groups groups;
+  Tally all;
+  for (const std::string& f : o.from_jsonl) {
+    std::ifstream in(f);
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty()) add_row(row_from_json(nlohmann::json::parse(line)), groups, all);
+  }
+  print_tables(groups, all);
+  return 0;
+}
+
 int run(const Options& o) {
+  if (!o.from_jsonl.empty()) return tables_from_jsonl(o);
+  std::optional<tbb::global_control> threads;
+  if (o.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(o.threads));
+  std::ofstream jsonl;
+  if (!o.jsonl.empty()) jsonl.open(o.jsonl, std::ios::app);
   cli::ToolConfig tool;
-  std::map<std::string, std::map<std::string, Tally>> groups;  // "drive type", "INS", ... -> level -> tally
+  Groups groups;
   Tally all;
   fmt::print("| drive | type | LiDAR | mount | INS | traffic | knock (m, deg) | verdict | drifted | not-observable | time offset err / sd (ms) | s |\n"
              "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -189,12 +251,11 @@ int run(const Options& o) {
     Row r{run.findings.dofs, Vec7::Zero(), d.knocked};
     r.truth.head<6>() = d.knock;
     const std::string ins = d.sim.ins_error.model == sim::InsErrorModel::kDrift ? "drift" : "rtk";
-    add(all, r);
-    add(groups["drive type"][kKindNames[static_cast<std::size_t>(d.kind)]], r);
-    add(groups["INS"][ins], r);
-    add(groups["mount"][kMounts[static_cast<std::size_t>(d.mount)]], r);
-    add(groups["LiDAR"][kModels[static_cast<std::size_t>(d.model)]], r);
-    add(groups["traffic"][fmt::format("{} vehicles", d.sim.traffic)], r);
+    r.levels = {{"drive type", kKindNames[static_cast<std::size_t>(d.kind)]}, {"INS", ins},
+                {"mount", kMounts[static_cast<std::size_t>(d.mount)]}, {"LiDAR", kModels[static_cast<std::size_t>(d.model)]},
+                {"traffic", fmt::format("{} vehicles", d.sim.traffic)}};
+    add_row(r, groups, all);
+    if (jsonl) jsonl << row_json(r).dump() << std::endl;
     const DofCheck& off = run.findings.dofs[6];
     fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1f} |\n", i,
                kKindNames[static_cast<std::size_t>(d.kind)], d.sim.lidar_model, kMounts[static_cast<std::size_t>(d.mount)],
@@ -222,6 +283,9 @@ int main(int argc, char** argv) {
   app.add_option("--duration-s", o.duration_s, "length of each drive, s");
   app.add_option("--azimuth-step-deg", o.azimuth_step_deg, "LiDAR horizontal resolution (reduced for speed), deg");
   app.add_option("--tables-every", o.tables_every, "print the cumulative tables every this many drives (0: at the end only)");
+  app.add_option("--threads", o.threads, "at most this many threads (0: all cores)");
+  app.add_option("--jsonl", o.jsonl, "append one JSON line per drive (its DOFs, truth and factors) to this file");
+  app.add_option("--from-jsonl", o.from_jsonl, "print the tables of the drives in these --jsonl files (no drive is run)");
   CLI11_PARSE(app, argc, argv);
   return insalign::run(o);
 }
