@@ -57,6 +57,25 @@ TEST(Repeatability, EachKindOfDofTakesTheLargerInflation) {
   EXPECT_NEAR(sd[5], std::max(4e-4, turns / 0.843 * 1e-5), 1e-12);
 }
 
+// The time offset's formal stddev (a few microseconds on the check's drives, its errors tenths of
+// a millisecond) takes the turns' inflation, or the segments' own spread when that is larger;
+// an offset not estimated (infinite) and a study without segments leave it as it is.
+TEST(Repeatability, TimeOffsetStddevTakesTheTurnsInflation) {
+  Vec6 formal;
+  formal << 1e-4, 1e-4, 1.0, 1e-5, 1e-5, 1e-5;
+  RepeatabilityResult rep;
+  rep.segments_ok = 3;
+  rep.stddev_whole_drive << 4e-3, 2e-3, std::numeric_limits<double>::infinity(), 1e-4, 1e-4, 4e-4;
+  rep.time_offset_stddev_whole_drive_s = 1e-5;
+  const double turns = std::pow(40.0 * 20.0 * 40.0, 1.0 / 3.0) / 0.843;
+  EXPECT_NEAR(time_offset_stddev_with_repeatability(6e-6, formal, rep), turns * 6e-6, 1e-12);
+  rep.time_offset_stddev_whole_drive_s = 1e-3;
+  EXPECT_DOUBLE_EQ(time_offset_stddev_with_repeatability(6e-6, formal, rep), 1e-3);
+  const double inf = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(time_offset_stddev_with_repeatability(inf, formal, rep), inf);
+  EXPECT_DOUBLE_EQ(time_offset_stddev_with_repeatability(6e-6, formal, RepeatabilityResult{}), 6e-6);
+}
+
 // The whole drive's stddev from a spread of n segments: spread / (d_n sqrt(n)).
 TEST(Repeatability, WholeDriveStddevPerSpread) {
   EXPECT_NEAR(whole_drive_stddev_per_spread(3), 1.0 / (1.693 * std::sqrt(3.0)), 1e-12);

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
@@ -150,9 +151,19 @@ std::string verdict_message(const std::array<DofCheck, 7>& dofs, CheckVerdict ve
     if (!skipped.empty()) out += " (not checked, as check.unchecked_dofs allows: " + skipped + ")";
     return out;
   }
-  std::string out = "inconclusive: this drive cannot decide " + list(DofVerdictKind::kNotObservable, false) + ".";
-  for (int i = 0; i < 7; ++i)
-    if (dofs[i].verdict == DofVerdictKind::kNotObservable && !unchecked[i]) out += fmt::format(" {}.", observing_drive(i));
+  return "inconclusive: " + undecided_dofs_message(dofs, unchecked);
+}
+
+std::string undecided_dofs_message(const std::array<DofCheck, 7>& dofs, const std::array<bool, 7>& unchecked) {
+  std::vector<std::string> names, drives;
+  for (int i = 0; i < 7; ++i) {
+    if (dofs[i].verdict != DofVerdictKind::kNotObservable || unchecked[i]) continue;
+    names.push_back(kCheckDofNames[i]);
+    const std::string drive(observing_drive(i));  // tx and ty share theirs: said once
+    if (std::find(drives.begin(), drives.end(), drive) == drives.end()) drives.push_back(drive);
+  }
+  std::string out = fmt::format("this drive cannot decide {}.", fmt::join(names, ", "));
+  for (const std::string& d : drives) out += " " + d + ".";
   return out;
 }
 

@@ -130,4 +130,8 @@ CorrectedExtrinsic corrected_extrinsic(const Iso3& T_ins_lidar_installed, double
 std::string verdict_message(const std::array<DofCheck, 7>& dofs, CheckVerdict verdict,
                             const std::array<bool, 7>& unchecked);
 
+/// "this drive cannot decide yaw, time_offset. yaw needs turns both ways ... ." for the DOFs
+/// `not-observable` and not unchecked: the inconclusive message's body.
+std::string undecided_dofs_message(const std::array<DofCheck, 7>& dofs, const std::array<bool, 7>& unchecked);
+
 }  // namespace insalign

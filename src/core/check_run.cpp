@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <fmt/format.h>
 
 #include "core/errors.hpp"
 #include "core/occupancy.hpp"
@@ -70,8 +71,11 @@ CheckRun run_check(const FrameStore& full, const Iso3& T_installed, double offse
   }
   run.findings = judge_extrinsic(T_installed, offset_installed_s, run.measured, config.check);
   if (!run.why_unobservable.empty()) {
-    for (DofCheck& d : run.findings.dofs) d.why = "this drive determines nothing: " + run.why_unobservable;
-    run.findings.message = "inconclusive: " + run.why_unobservable;
+    // Why the stages stopped, and still which DOFs and what drive would decide them.
+    for (int i = 0; i < 7; ++i)
+      run.findings.dofs[i].why = fmt::format("this drive determines nothing ({}): {}", run.why_unobservable, observing_drive(i));
+    run.findings.message = fmt::format("inconclusive: {}; {}", run.why_unobservable,
+                                       undecided_dofs_message(run.findings.dofs, unchecked_dofs(config.check)));
   }
   if (run.result) {
     for (const std::string& w : run.result->warnings) run.findings.warnings.push_back(w);

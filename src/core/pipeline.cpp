@@ -62,12 +62,14 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
 }
 
 // The formal stddev treats every point as independent and comes out 10-50x below the
-// benchmark's errors; the segments' disagreement is an honest floor (core/repeatability).
+// benchmark's errors; the segments' disagreement is an honest floor (core/repeatability), for
+// the time offset too.
 // tz from stage 1 (not re-estimated per segment) is widened like roll and pitch, whose ground
 // excitation it shares; stage 3's tz is absolute and keeps its own stddev.
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
   const double tz_sd = r.stddev[2];
   const double tz_inflation = ground_inflation(r.stddev, rep);
+  r.time_offset_stddev_s = time_offset_stddev_with_repeatability(r.time_offset_stddev_s, r.stddev, rep);
   r.stddev = stddev_with_repeatability(r.stddev, rep);
   r.stddev[2] = r.z.determined() || !r.rough.tz_estimated ? tz_sd : tz_sd * tz_inflation;
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);

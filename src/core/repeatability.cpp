@@ -83,9 +83,11 @@ std::string format_spread(const Vec6& spread) {
 // Spread over the successful segments, and the whole drive's sigma it implies.
 void summarise(const RepeatabilityInputs& in, const RepeatabilityConfig& config, RepeatabilityResult& r) {
   Vec6 lo = Vec6::Constant(1e300), hi = Vec6::Constant(-1e300);
+  double offset_lo = 1e300, offset_hi = -1e300;
   for (const SegmentResult& seg : r.segments) {
     if (!seg.ok) continue;
     ++r.segments_ok;
+    offset_lo = std::min(offset_lo, seg.time_offset_s), offset_hi = std::max(offset_hi, seg.time_offset_s);
     Vec6 v;
     v.head<3>() = seg.T_ins_lidar.translation();
     v.tail<3>() = so3_log(seg.T_ins_lidar.linear() * in.T_ins_lidar_full.linear().transpose());
@@ -99,6 +101,7 @@ void summarise(const RepeatabilityInputs& in, const RepeatabilityConfig& config,
   r.spread = hi - lo;
   r.spread[2] = 0.0;
   for (int i : {0, 1, 3, 4, 5}) r.stddev_whole_drive[i] = r.spread[i] * whole_drive_stddev_per_spread(r.segments_ok);
+  r.time_offset_stddev_whole_drive_s = (offset_hi - offset_lo) * whole_drive_stddev_per_spread(r.segments_ok);
   const bool large = r.spread.head<2>().maxCoeff() > config.warn_trans_m ||
                      r.spread.tail<3>().maxCoeff() > config.warn_rot_deg * kRadPerDeg;
   if (large) {
@@ -131,29 +134,44 @@ double whole_drive_stddev_per_spread(int segments) {
   return 1.0 / (kRangeFactor[n] * std::sqrt(double(n)));
 }
 
-Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability) {
+namespace {
+
+// How far the formal stddev falls short for the DOFs the turns determine (x, y, yaw) and for
+// those the ground does (roll, pitch): the formal stddev is the more optimistic for the former
+// (30-40x against 10-15x on 52 drives, bench/RESULTS.md), so each kind takes the larger of the
+// drive's pooled inflation and its own, divided by the geometric mean's shortfall; at least 1.
+struct Inflations {
+  double turns = 1.0, ground = 1.0;
+};
+Inflations inflations(const Vec6& formal, const RepeatabilityResult& repeatability) {
   const Vec6& segments = repeatability.stddev_whole_drive;
   const double bias = kGeomeanOfRangeBias[std::clamp(repeatability.segments_ok, 0, 5)];
   const double drive = pooled_inflation(formal, segments, {0, 1, 3, 4, 5});
-  // The turns determine x, y and yaw, the ground roll and pitch, and the formal stddev is the more
-  // optimistic for the former (30-40x against 10-15x on 52 drives, bench/RESULTS.md): each kind
-  // takes the larger of the drive's inflation and its own.
-  const double turns = std::max(drive, pooled_inflation(formal, segments, {0, 1, 5}));
-  const double ground = std::max(drive, pooled_inflation(formal, segments, {3, 4}));
+  return {std::max(1.0, std::max(drive, pooled_inflation(formal, segments, {0, 1, 5})) / bias),
+          std::max(1.0, std::max(drive, pooled_inflation(formal, segments, {3, 4})) / bias)};
+}
+
+}  // namespace
+
+Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability) {
+  const Vec6& segments = repeatability.stddev_whole_drive;
+  const Inflations inflation = inflations(formal, repeatability);
   Vec6 out = formal;
   for (int i : {0, 1, 3, 4, 5}) {
     if (!std::isfinite(segments[i])) continue;
-    const double inflation = std::max(1.0, (i == 3 || i == 4 ? ground : turns) / bias);
-    out[i] = std::max({std::isfinite(formal[i]) ? formal[i] : 0.0, segments[i], inflation * formal[i]});
+    const double inflation_i = i == 3 || i == 4 ? inflation.ground : inflation.turns;
+    out[i] = std::max({std::isfinite(formal[i]) ? formal[i] : 0.0, segments[i], inflation_i * formal[i]});
   }
   return out;
 }
 
+double time_offset_stddev_with_repeatability(double formal_s, const Vec6& formal, const RepeatabilityResult& repeatability) {
+  if (!std::isfinite(formal_s) || !std::isfinite(repeatability.time_offset_stddev_whole_drive_s)) return formal_s;
+  return std::max({formal_s, repeatability.time_offset_stddev_whole_drive_s, inflations(formal, repeatability).turns * formal_s});
+}
+
 double ground_inflation(const Vec6& formal, const RepeatabilityResult& repeatability) {
-  const Vec6& segments = repeatability.stddev_whole_drive;
-  const double bias = kGeomeanOfRangeBias[std::clamp(repeatability.segments_ok, 0, 5)];
-  const double drive = pooled_inflation(formal, segments, {0, 1, 3, 4, 5});
-  return std::max(1.0, std::max(drive, pooled_inflation(formal, segments, {3, 4})) / bias);
+  return inflations(formal, repeatability).ground;
 }
 
 RepeatabilityResult run_repeatability(const FrameStore& store, const RepeatabilityInputs& inputs,

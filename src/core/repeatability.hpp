@@ -57,6 +57,9 @@ struct RepeatabilityResult {
   /// segments (the expected range of n normal samples is d_n sigma, and a segment has 1/n of the
   /// data). +inf where fewer than two segments succeeded.
   Vec6 stddev_whole_drive = Vec6::Constant(std::numeric_limits<double>::infinity());
+  /// The same for the time offset, s (the segments' stage 2 estimates it when the run's did; 0
+  /// when it did not, and +inf with fewer than two segments).
+  double time_offset_stddev_whole_drive_s = std::numeric_limits<double>::infinity();
   std::string warning;                    ///< a spread above the config's limits, or too few segments
   double wall_time_s = 0.0;
 };
@@ -84,6 +87,13 @@ double whole_drive_stddev_per_spread(int segments);
 /// larger of the two, divided by the geometric mean's known shortfall for that many segments.
 /// DOFs without a finite segment value keep their formal stddev.
 Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability);
+
+/// The time offset's stddev to report from its formal one (s) by the same rule as x, y and yaw
+/// (the turns determine it too): the largest of the formal stddev, the segments' whole-drive
+/// stddev, and the formal one times the turns' inflation (`formal`: the six DOFs' formal stddev).
+/// The formal value alone came out 10-100x below the errors (bench/results/check.md). A formal
+/// stddev that is not finite (the offset not estimated) is returned as is.
+double time_offset_stddev_with_repeatability(double formal_s, const Vec6& formal, const RepeatabilityResult& repeatability);
 
 /// The factor stddev_with_repeatability widens roll and pitch by (at least 1): for a DOF the
 /// segments do not estimate but the same ground excitation determines (stage 1's tz).
