@@ -1,7 +1,8 @@
 // The default trajectory correction (trajectory.mode if-drifting) decides from the drive's own
 // evidence: the INS's stated accuracy growing along the drive outside the stretches the screen
-// leaves out. RTK-fixed, float-episode, wrong-fix and outage drives do not engage it; a
-// drifting INS does.
+// leaves out or, where the INS states none (TUM, OpenCalib pose files), the frames' offsets from
+// the map of the drive's other times. RTK-fixed, float-episode, wrong-fix and outage drives do not
+// engage it; a drifting INS does.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -23,6 +24,19 @@ double stated_drift_of(const sim::SimConfig& sc) {
   InsScreenResult screen;
   const FrameStore screened = leave_out_status_spans(store, config.ins_screen, screen);
   return stated_drift_rms_m(screened);
+}
+
+// if-drifting's verdict on the drive when its INS states nothing: the screen (status, then the
+// LiDAR checks with the true extrinsic, as stage 1's is within millimetres of it) gives the evidence.
+DriftEvidence unstated_evidence_of(const sim::SimConfig& sc) {
+  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+  Dataset data = sim::world_dataset(world);
+  data.ins_quality.clear();
+  const PipelineConfig config;
+  const FrameStore store = make_frame_store(data, config);
+  const InsScreenResult screen =
+      lidar_checks(store, world->T_ins_lidar_true, world->time_offset_s, config.ins_screen);
+  return drift_evidence(leave_out_spans(store, screen.spans), screen, config.trajectory);
 }
 
 sim::SimConfig short_drive(std::uint64_t seed) {
@@ -49,6 +63,31 @@ TEST(TrajectoryDefault, IsIfDriftingAndEngagesOnlyOnADriftingIns) {
     sim::SimConfig drift = short_drive(seed);
     drift.ins_error.model = sim::InsErrorModel::kDrift;  // 5 mm/sqrt(s): ~27 mm RMS growth over 60 s
     EXPECT_GT(stated_drift_of(drift), 2.0 * defaults.drifting_min_stated_growth_m) << "drift, seed " << seed;
+  }
+}
+
+TEST(TrajectoryDefault, WithoutStatedAccuracyTheLidarDecides) {
+  const TrajectoryCorrectionConfig defaults;
+  for (std::uint64_t seed : {1u, 2u}) {
+    sim::SimConfig fixed = short_drive(seed);
+    const DriftEvidence f = unstated_evidence_of(fixed);
+    EXPECT_FALSE(f.stated);
+    EXPECT_TRUE(f.measured) << f.message;
+    EXPECT_FALSE(f.drifting) << "RTK fixed, seed " << seed << ": " << f.message;
+    sim::SimConfig events = short_drive(seed);
+    events.duration_s = 120.0;
+    events.figure8_loops = 5;
+    events.ins_error.float_episodes = 2;
+    events.ins_error.wrong_fixes = 1;
+    events.ins_error.outages = 1;
+    const DriftEvidence e = unstated_evidence_of(events);
+    EXPECT_FALSE(e.drifting) << "float, wrong fix, outage, seed " << seed << ": " << e.message;
+    sim::SimConfig drift = short_drive(seed);
+    drift.ins_error.model = sim::InsErrorModel::kDrift;
+    const DriftEvidence d = unstated_evidence_of(drift);
+    EXPECT_TRUE(d.drifting) << "drift, seed " << seed << ": " << d.message;
+    EXPECT_GT(d.value_m, f.value_m);
+    EXPECT_NE(d.message.find("states no accuracy"), std::string::npos) << d.message;
   }
 }
 
