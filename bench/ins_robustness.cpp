@@ -224,12 +224,13 @@ void print_coverage_run(const std::string& name, std::uint64_t seed, const Vec6&
   }
   fmt::print(stderr,
              "RUN {} seed {}:{} | formal/segments{} ({} segments) | tz_coupling {} dxy/dtz {:.4f} {:.4f} added {:.3g} "
-             "{:.3g} mm, rpy {:.2g} {:.2g} {:.2g} deg | correction {} ({}) | left out {:.1f} s | {:.0f} s\n",
+             "{:.3g} mm, rpy {:.2g} {:.2g} {:.2g} deg | map offset median {:.1f} mm | correction {} ({}) | left out {:.1f} s | "
+             "{:.0f} s\n",
              name, seed, cells, parts, r.repeatability.segments_ok, r.tz_coupling.ok ? "on" : "off",
              r.tz_coupling.dxy_dtz.x(), r.tz_coupling.dxy_dtz.y(), 1e3 * r.tz_coupling.stddev_added_m.x(),
              1e3 * r.tz_coupling.stddev_added_m.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.x(),
              kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.z(),
-             r.trajectory.applied ? "applied" : "not applied", r.trajectory.decision,
+             1e3 * map_offset_median_m(r.ins_screen), r.trajectory.applied ? "applied" : "not applied", r.trajectory.decision,
              spans_duration_s(r.excluded), wall_s);
 }
 

@@ -84,6 +84,10 @@ TEST(TrajectoryDefault, WithoutStatedAccuracyTheLidarDecides) {
     EXPECT_FALSE(e.drifting) << "float, wrong fix, outage, seed " << seed << ": " << e.message;
     sim::SimConfig drift = short_drive(seed);
     drift.ins_error.model = sim::InsErrorModel::kDrift;
+    // Twice the default walk: over these 60 s a 5 mm/sqrt(s) walk sits near the threshold (which
+    // is set for drives of about 100 s), 10 mm/sqrt(s) clearly above it.
+    drift.ins_error.drift_horizontal_m_per_sqrt_s = 0.01;
+    drift.ins_error.drift_vertical_m_per_sqrt_s = 0.01;
     const DriftEvidence d = unstated_evidence_of(drift);
     EXPECT_TRUE(d.drifting) << "drift, seed " << seed << ": " << d.message;
     EXPECT_GT(d.value_m, f.value_m);
