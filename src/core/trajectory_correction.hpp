@@ -61,9 +61,10 @@ struct TrajectoryCorrectionConfig {
   /// if-drifting where the INS states no accuracy (TUM, OpenCalib pose files): the INS counts as
   /// drifting when the median frame offset from the map of the drive's other times (the INS
   /// screen's map-residual check, frames left out excluded) is at least this, m. Measured
-  /// (bench/results/honest.md): RTK fixed (1 cm / 1.5 cm Gauss-Markov, 30 s) 28-30 mm, perfect
-  /// poses 3-4 mm, a 5 mm/sqrt(s) walk over 108 s 38-66 mm. The margin to RTK is thin: an RTK
-  /// drive above it only costs the correction's time (auto's decision still applies).
+  /// (bench/results/honest.md): RTK fixed (1 cm / 1.5 cm Gauss-Markov, 30 s) 28-32 mm, perfect
+  /// poses 2-5 mm, a 5 mm/sqrt(s) walk over 108 s 28-66 mm (7 of 8 above): the two overlap. An
+  /// RTK drive above it costs the correction's time (auto's decision still applies); a drifting
+  /// one below it gets off's answer.
   double drifting_min_map_offset_m = 0.033;
   double knot_spacing_s = 1.0;            ///< knots of the correction, INS seconds
   /// Assumed random walk of the INS position per axis where the INS states nothing better; the
