@@ -39,6 +39,8 @@ struct Options {
   double azimuth_step_deg = 0.4;
   double duration_s = 0.0;           ///< drives on the simulator's own trajectory (0: full)
   double recorded_duration_s = 0.0;  ///< coverage: drives along the recorded trajectory (0: full, 108 s)
+  /// The INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR.
+  bool no_stated_quality = false;
 };
 
 // Absolute errors [tx ty tz (m), roll pitch yaw (deg)].
@@ -56,11 +58,13 @@ struct Calibrated {
   std::shared_ptr<const sim::World> world;
 };
 
-Calibrated calibrate(const sim::SimConfig& sim_config, bool use_init, const PipelineConfig& pipeline) {
+Calibrated calibrate(const sim::SimConfig& sim_config, bool use_init, const PipelineConfig& pipeline,
+                     bool no_stated_quality) {
   Calibrated c;
   c.world = std::make_shared<const sim::World>(sim::build_world(sim_config));
   Dataset data = sim::world_dataset(c.world);
   if (!use_init) data.T_ins_lidar_init.reset();
+  if (no_stated_quality) data.ins_quality.clear();
   try {
     const FrameStore store = make_frame_store(data, pipeline);
     c.r = run_calibration(store, pipeline);
@@ -99,8 +103,8 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     drift.ins_error.model = sim::InsErrorModel::kDrift;
     drift.ins_error.drift_heading_deg_per_sqrt_s = 0.0;
     const auto t0 = std::chrono::steady_clock::now();
-    const Calibrated p = calibrate(perfect, true, pipeline);
-    const Calibrated d = calibrate(drift, true, pipeline);
+    const Calibrated p = calibrate(perfect, true, pipeline, o.no_stated_quality);
+    const Calibrated d = calibrate(drift, true, pipeline, o.no_stated_quality);
     if (!p.ok || !d.ok) {
       fmt::print(stderr, "seed {}: FAIL {} {}\n", seed, p.message, d.message);
       continue;
@@ -117,12 +121,13 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     fmt::print(stderr,
                "seed {:>3}: perfect rpy {:.4f} {:.4f} {:.4f} xy {:.1f} {:.1f} mm | drift: INS as truth rpy {:.4f} {:.4f} "
                "{:.4f} xy {:.1f} {:.1f} | joint rpy {:.4f} {:.4f} {:.4f} xy {:.1f} {:.1f} | final tz {:.1f} mm | "
-               "correction {:.1f} mm RMS {} ({:.0f} s)\n",
+               "correction {:.1f} mm RMS {} | map offset median {:.1f} mm, perfect {:.1f} mm ({:.0f} s)\n",
                seed, run.perfect[3], run.perfect[4], run.perfect[5], 1e3 * run.perfect[0], 1e3 * run.perfect[1],
                run.ins_truth[3], run.ins_truth[4], run.ins_truth[5], 1e3 * run.ins_truth[0], 1e3 * run.ins_truth[1],
                run.joint[3], run.joint[4], run.joint[5], 1e3 * run.joint[0], 1e3 * run.joint[1], 1e3 * run.final[2],
                run.correction_rms_mm, run.applied ? "applied" : "not applied",
-               std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+               1e3 * map_offset_median_m(d.r.ins_screen),
+               1e3 * map_offset_median_m(p.r.ins_screen), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }
   if (runs.empty()) return 1;
   Vec6 mae_p = Vec6::Zero(), mae_i = Vec6::Zero(), mae_j = Vec6::Zero(), mae_f = Vec6::Zero();
@@ -219,12 +224,13 @@ void print_coverage_run(const std::string& name, std::uint64_t seed, const Vec6&
   }
   fmt::print(stderr,
              "RUN {} seed {}:{} | formal/segments{} ({} segments) | tz_coupling {} dxy/dtz {:.4f} {:.4f} added {:.3g} "
-             "{:.3g} mm, rpy {:.2g} {:.2g} {:.2g} deg | correction {} | left out {:.1f} s | {:.0f} s\n",
+             "{:.3g} mm, rpy {:.2g} {:.2g} {:.2g} deg | map offset median {:.1f} mm | correction {} ({}) | left out {:.1f} s | "
+             "{:.0f} s\n",
              name, seed, cells, parts, r.repeatability.segments_ok, r.tz_coupling.ok ? "on" : "off",
              r.tz_coupling.dxy_dtz.x(), r.tz_coupling.dxy_dtz.y(), 1e3 * r.tz_coupling.stddev_added_m.x(),
              1e3 * r.tz_coupling.stddev_added_m.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.x(),
              kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.y(), kDegPerRad * r.tz_coupling.rpy_stddev_added_rad.z(),
-             r.trajectory.applied ? "applied" : "not applied",
+             1e3 * map_offset_median_m(r.ins_screen), r.trajectory.applied ? "applied" : "not applied", r.trajectory.decision,
              spans_duration_s(r.excluded), wall_s);
 }
 
@@ -239,7 +245,7 @@ int coverage_study(const cli::ToolConfig& tool, const Options& o, int seeds, std
       sc.sim.azimuth_step_deg = o.azimuth_step_deg;
       sc.sim.duration_s = sc.recorded ? o.recorded_duration_s : o.duration_s;
       const auto t0 = std::chrono::steady_clock::now();
-      const Calibrated c = calibrate(sc.sim, sc.use_init, tool.calibrate);
+      const Calibrated c = calibrate(sc.sim, sc.use_init, tool.calibrate, o.no_stated_quality);
       if (!c.ok) {
         ++rows[n].failed;
         fmt::print(stderr, "RUN {} seed {}: FAIL {}\n", names[n], seed, c.message);
@@ -299,6 +305,8 @@ int main(int argc, char** argv) {
   app.add_option("--recorded-duration-s", o.recorded_duration_s,
                  "coverage: truncate drives along the recorded trajectory (0: full)")
       ->capture_default_str();
+  app.add_flag("--no-stated-quality", o.no_stated_quality,
+               "the INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR");
   std::vector<std::string> assignments;
   app.add_option("--set", assignments, "override a parameter (keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);

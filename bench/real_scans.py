@@ -151,7 +151,7 @@ MOUNTS = [  # T_ins_lidar: rpy deg, t m (roof-like mounts turned about the verti
 ]
 
 
-def write_balm_case(scans, src, case_dir, T_ins_lidar, rng, walk_mm, init_rot_deg, init_trans_m):
+def write_balm_case(scans, src, case_dir, T_ins_lidar, rng, walk_mm, init_rot_deg, init_trans_m, noise_scale=1.0):
     lidar_dir = os.path.join(case_dir, "lidar")
     os.makedirs(lidar_dir, exist_ok=True)
     T_lidar_ins = inverse(T_ins_lidar)
@@ -169,9 +169,9 @@ def write_balm_case(scans, src, case_dir, T_ins_lidar, rng, walk_mm, init_rot_de
             t_prev = t
             T_world_ins = matmul(T_world_lidar, T_lidar_ins)
             # White noise of an RTK-fixed INS: 5 mm per axis, 0.005 deg per axis.
-            dR = rot_rpy_deg(*(rng.gauss(0.0, 0.005) for _ in range(3)))
+            dR = rot_rpy_deg(*(rng.gauss(0.0, 0.005 * noise_scale) for _ in range(3)))
             R = matmul(dR, T_R(T_world_ins))
-            p = [a + w + rng.gauss(0.0, 0.005) for a, w in zip(T_t(T_world_ins), walk)]
+            p = [a + w + rng.gauss(0.0, 0.005 * noise_scale) for a, w in zip(T_t(T_world_ins), walk)]
             q = quat_xyzw(R)
             f.write(f"{t:.6f} {p[0]:.6f} {p[1]:.6f} {p[2]:.6f} {q[0]:.9f} {q[1]:.9f} {q[2]:.9f} {q[3]:.9f}\n")
     axis = [rng.gauss(0, 1) for _ in range(3)]
@@ -220,7 +220,7 @@ def balm_study(args, rows, tally):
                   os.path.join(args.work, "balm"))
     scans = balm_poses(src)
     for walk_mm in args.walk_mm:
-        for m in range(args.mounts):
+        for m in range(args.first_mount, args.first_mount + args.mounts):
             (rpy, t) = MOUNTS[m % len(MOUNTS)]
             T_gt = make_T(rot_rpy_deg(*rpy), list(t))
             for seed in range(1, args.seeds + 1):
@@ -228,7 +228,8 @@ def balm_study(args, rows, tally):
                 case = os.path.join(args.work, "cases", f"balm-m{m}-s{seed}-w{walk_mm:g}")
                 shutil.rmtree(case, ignore_errors=True)
                 os.makedirs(case)
-                write_balm_case(scans, src, case, T_gt, rng, walk_mm, args.init_rot_deg, args.init_trans_m)
+                write_balm_case(scans, src, case, T_gt, rng, walk_mm, args.init_rot_deg, args.init_trans_m,
+                                args.noise_scale)
                 code, result, wall, err = run_calibrate(args.insalign, case, [], args.set)
                 label = f"BALM mount {m}, seed {seed}, walk {walk_mm:g} mm/sqrt(s)"
                 record(label, code, result, wall, err, T_gt, rows, tally)
@@ -271,7 +272,7 @@ def kitti_study(args, rows, tally):
 
 def record(label, code, result, wall, err, T_gt, rows, tally):
     if result is None:
-        rows.append(f"| {label} | exit {code} | {' '.join(err)[:160]} | | | {wall:.1f} |")
+        rows.append(f"| {label} | exit {code} | {' '.join(err)[:160]} | | | | {wall:.1f} |")
         return
     T_est = result["T_ins_lidar"]
     e = error_ins_frame(T_est, T_gt)
@@ -293,7 +294,8 @@ def record(label, code, result, wall, err, T_gt, rows, tally):
         if not ok:
             t["misses"].append(f"{label}: {ratio:.1f} sigma")
         cells.append(f"{fmt_err(i, e[i])} / {fmt_err(i, sd_i)}{'' if ok else ' **MISS**'}")
-    rows.append(f"| {label} | {' | '.join(cells)} | {result.get('tz_source', '?')} | {wall:.1f} |")
+    offset_ms = 1e3 * result.get("time_offset_s", float("nan"))
+    rows.append(f"| {label} | {' | '.join(cells)} | {result.get('tz_source', '?')} | {offset_ms:.1f} | {wall:.1f} |")
 
 
 def main():
@@ -306,6 +308,8 @@ def main():
     ap.add_argument("--walk-mm", default="0,5", help="INS position random walk per axis, mm/sqrt(s), comma-separated")
     ap.add_argument("--init-rot-deg", type=float, default=3.0)
     ap.add_argument("--init-trans-m", type=float, default=0.1)
+    ap.add_argument("--noise-scale", type=float, default=1.0, help="scale of the INS's white noise (0: exact odometry)")
+    ap.add_argument("--first-mount", type=int, default=0)
     ap.add_argument("--no-kitti", action="store_true")
     ap.add_argument("--set", action="append", default=[], help="passed to calibrate as --set KEY=VALUE")
     args = ap.parse_args()
@@ -315,8 +319,8 @@ def main():
     balm_study(args, rows, tally)
     if not args.no_kitti:
         kitti_study(args, rows, tally)
-    print("| case | tx mm | ty mm | tz mm | roll deg | pitch deg | yaw deg | tz from | wall s |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("| case | tx mm | ty mm | tz mm | roll deg | pitch deg | yaw deg | tz from | time offset ms | wall s |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     print("\n".join(rows))
     print("\n(cells: |error| / stated stddev; (u): reported not determined; **MISS**: determined, beyond 3 stddev)\n")
     runs = sum(t["runs"] for t in tally.values())

@@ -51,7 +51,7 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
   RefineConfig refine = config.refine;
   refine.estimate_time_offset = r.refine && r.refine->time_offset_estimated;  // as stage 2 ended
   progress("trajectory", 0.0);
-  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine);
+  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen);
   progress("trajectory", 1.0);
   if (!r.trajectory.applied) return;
   r.T_ins_lidar = r.trajectory.T_ins_lidar;

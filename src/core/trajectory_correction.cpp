@@ -469,6 +469,48 @@ double stated_drift_rms_m(const FrameStore& store) {
   return std::sqrt(std::max(0.0, sum_sq / static_cast<double>(n) - best * best));
 }
 
+double map_offset_median_m(const InsScreenResult& screen) {
+  auto left_out = [&](double t_s) {
+    return std::any_of(screen.spans.begin(), screen.spans.end(),
+                       [t_s](const TimeSpan& span) { return t_s >= span.begin_s && t_s <= span.end_s; });
+  };
+  std::vector<double> offsets;
+  for (const FrameOffset& o : screen.offsets)
+    if (o.used && !o.flagged && !left_out(o.t_s)) offsets.push_back(o.residual_m);
+  if (offsets.size() < 10) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = offsets.begin() + static_cast<std::ptrdiff_t>(offsets.size() / 2);
+  std::nth_element(offsets.begin(), mid, offsets.end());
+  return *mid;
+}
+
+DriftEvidence drift_evidence(const FrameStore& store, const InsScreenResult& screen,
+                             const TrajectoryCorrectionConfig& config) {
+  DriftEvidence e;
+  e.stated = std::any_of(store.data().ins_quality.begin(), store.data().ins_quality.end(),
+                         [](const InsQuality& q) { return std::isfinite(q.horizontal_stddev_m); });
+  if (e.stated) {
+    e.value_m = stated_drift_rms_m(store);
+    e.drifting = e.value_m >= config.drifting_min_stated_growth_m;
+    e.message = fmt::format("the INS states {} (its stated horizontal stddev grows {:.1f} mm above its best; "
+                            "if-drifting needs {:.0f} mm)", e.drifting ? "drift" : "no drift", 1e3 * e.value_m,
+                            1e3 * config.drifting_min_stated_growth_m);
+    return e;
+  }
+  const double median_m = map_offset_median_m(screen);
+  e.measured = std::isfinite(median_m);
+  if (!e.measured) {
+    e.message = "the INS states no accuracy and the LiDAR check of the INS measured too few frames to tell whether it "
+                "drifts";
+    return e;
+  }
+  e.value_m = median_m;
+  e.drifting = median_m >= config.drifting_min_map_offset_m;
+  e.message = fmt::format("the INS states no accuracy; the frames sit {:.1f} mm (median) off the map of the drive's "
+                          "other times, so it {} (if-drifting needs {:.0f} mm)", 1e3 * median_m,
+                          e.drifting ? "drifts" : "does not drift", 1e3 * config.drifting_min_map_offset_m);
+  return e;
+}
+
 Vec3 TrajectoryCorrection::position_at(double t) const {
   if (position_m.empty()) return Vec3::Zero();
   if (position_m.size() == 1) return position_m.front();
@@ -494,7 +536,7 @@ PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& 
 
 TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_ins_lidar_start,
                                         double time_offset_start_s, const TrajectoryCorrectionConfig& config,
-                                        const RefineConfig& refine) {
+                                        const RefineConfig& refine, const InsScreenResult* screen) {
   const auto t0 = Clock::now();
   TrajectoryCorrection s;
   s.T_ins_lidar = T_ins_lidar_start;
@@ -504,11 +546,9 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
     return s;
   }
   if (config.mode == TrajectoryCorrectionMode::kIfDrifting) {
-    const double growth_m = stated_drift_rms_m(store);
-    if (growth_m < config.drifting_min_stated_growth_m) {
-      s.outcome.message = fmt::format("INS trajectory correction not needed: the INS states no drift (its stated "
-                                      "horizontal stddev grows {:.1f} mm above its best; if-drifting needs {:.0f} mm)",
-                                      1e3 * growth_m, 1e3 * config.drifting_min_stated_growth_m);
+    const DriftEvidence evidence = drift_evidence(store, screen ? *screen : InsScreenResult{}, config);
+    if (!evidence.drifting) {
+      s.outcome.message = "INS trajectory correction not needed: " + evidence.message;
       s.decision = s.outcome.message;
       return s;
     }

@@ -27,6 +27,7 @@
 
 #include "core/frame_store.hpp"
 #include "core/geometry.hpp"
+#include "core/ins_screen.hpp"
 #include "core/pose_stream.hpp"
 #include "core/refine.hpp"
 #include "core/stage.hpp"
@@ -35,10 +36,11 @@ namespace insalign {
 
 enum class TrajectoryCorrectionMode {
   kOff,     ///< the INS poses are taken as exact
-  /// Estimated only when the INS states that it drifts (its stated horizontal stddev grows along
-  /// the drive, outside the stretches left out: stated_drift_rms_m), then decided as kAuto. An
-  /// RTK-fixed drive costs nothing and keeps off's answer; float episodes, outages and wrong fixes
-  /// are left out by the screen and do not count as drift.
+  /// Estimated only when the drive shows that the INS drifts (drift_evidence: the INS's stated
+  /// horizontal stddev growing along the drive or, where it states none, the frames sitting off
+  /// the map of the drive's other times), then decided as kAuto. An RTK-fixed drive costs nothing
+  /// and keeps off's answer; float episodes, outages and wrong fixes are left out by the screen and
+  /// do not count as drift.
   kIfDrifting,
   kAuto,    ///< estimated always, applied only when the drive's evidence asks for it (see decide)
   kAlways,  ///< estimated and applied
@@ -56,6 +58,14 @@ struct TrajectoryCorrectionConfig {
   /// best on the drive by at least this (RMS over the samples not left out, m). A walk of
   /// 5 mm/sqrt(s) over 108 s states ~37 mm; an RTK-fixed INS states a constant ~1 cm (0).
   double drifting_min_stated_growth_m = 0.01;
+  /// if-drifting where the INS states no accuracy (TUM, OpenCalib pose files): the INS counts as
+  /// drifting when the median frame offset from the map of the drive's other times (the INS
+  /// screen's map-residual check, frames left out excluded) is at least this, m. Measured
+  /// (bench/results/honest.md): RTK fixed (1 cm / 1.5 cm Gauss-Markov, 30 s) 28-32 mm, perfect
+  /// poses 2-5 mm, a 5 mm/sqrt(s) walk over 108 s 28-66 mm (7 of 8 above): the two overlap. An
+  /// RTK drive above it costs the correction's time (auto's decision still applies); a drifting
+  /// one below it gets off's answer.
+  double drifting_min_map_offset_m = 0.033;
   double knot_spacing_s = 1.0;            ///< knots of the correction, INS seconds
   /// Assumed random walk of the INS position per axis where the INS states nothing better; the
   /// stated standard deviations (Dataset::ins_quality) add their change between knots.
@@ -81,10 +91,14 @@ struct TrajectoryCorrectionConfig {
 template <class V>
 void visit_config(V& v, TrajectoryCorrectionConfig& c) {
   v("mode", c.mode,
-    "off, if-drifting (estimated when the INS states it drifts, then as auto), auto (estimated, applied when the drive's "
-    "own evidence asks for it) or always");
+    "off, if-drifting (estimated when the drive shows the INS drifts: its stated stddev grows or, where it states none, "
+    "its frames sit off the map of other times; then as auto), auto (estimated, applied when the drive's own evidence "
+    "asks for it) or always");
   v("drifting_min_stated_growth_m", c.drifting_min_stated_growth_m,
     "if-drifting: the INS drifts when its stated horizontal stddev grows at least this above its best, m");
+  v("drifting_min_map_offset_m", c.drifting_min_map_offset_m,
+    "if-drifting where the INS states no stddev: the INS drifts when frames sit this far off the map of other times "
+    "(median), m");
   v("knot_spacing_s", c.knot_spacing_s, "knots of the INS trajectory correction, s");
   v("drift_m_per_sqrt_s", c.drift_m_per_sqrt_s, "assumed INS position random walk per axis (prior), m/sqrt(s)");
   v("estimate_heading", c.estimate_heading, "also correct the INS heading (its drive mean stays in yaw)");
@@ -125,14 +139,35 @@ struct TrajectoryCorrection {
 /// states nothing.
 double stated_drift_rms_m(const FrameStore& store);
 
+/// if-drifting's verdict: does the INS drift on this drive? From what the INS states where it states
+/// a horizontal stddev (stated_drift_rms_m), else from the LiDAR (map_offset_median_m).
+struct DriftEvidence {
+  bool stated = false;    ///< the INS states its accuracy: value_m is stated_drift_rms_m
+  bool measured = false;  ///< else the map-residual check measured frames: value_m is their median offset
+  double value_m = 0.0;
+  bool drifting = false;
+  std::string message;    ///< the verdict and its numbers, in plain words
+};
+DriftEvidence drift_evidence(const FrameStore& store, const InsScreenResult& screen,
+                             const TrajectoryCorrectionConfig& config);
+
+/// Median offset of the frames from the map of the drive's other times (the screen's map-residual
+/// check, beyond its drive-wide part), over the frames it measured that are neither flagged nor
+/// in a span the screen found, m; NaN when it measured fewer than 10. A drifting INS misplaces each
+/// frame by its error's change since the other passes (a 5 mm/sqrt(s) walk: centimetres); an
+/// RTK-fixed one by its noise.
+double map_offset_median_m(const InsScreenResult& screen);
+
 /// The INS trajectory with the correction applied at every pose.
 PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& correction);
 
 /// Estimates the correction and the extrinsic jointly from a start near the optimum (stage 2's
 /// result). Local planes follow `refine` (plane_voxel_m etc.); tz and, unless
 /// refine.estimate_time_offset, the offset stay fixed. `ins_quality`: the INS's stated stddevs.
+/// `screen`: the INS screen's findings, if-drifting's evidence where the INS states nothing
+/// (none: such a drive counts as not drifting).
 TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_ins_lidar_start,
                                         double time_offset_start_s, const TrajectoryCorrectionConfig& config,
-                                        const RefineConfig& refine);
+                                        const RefineConfig& refine, const InsScreenResult* screen = nullptr);
 
 }  // namespace insalign
