@@ -91,7 +91,7 @@ for c in $all; do
   cpu=$(awk '{print $2}' "$work/$c.times" | median)
   rss=$(awk '{print $3}' "$work/$c.times" | median)
   anon=$(awk '{print $4}' "$work/$c.times" | median)
-  size=$(du -sh "$work/$c" | cut -f1)
+  size=$(du -shL "$work/$c" | cut -f1)
   awk -v c="$c" -v w="$wall" -v pw="$pcd_wall" -v u="$cpu" -v pu="$pcd_cpu" -v m="$rss" -v a="$anon" -v s="$size" \
     'BEGIN {printf "| %s | %.2f | %.2f | %.2f | %.2f | %.0f | %.0f | %s |\n", c, w, w / pw, u, u / pu, m / 1024, a / 1024, s}'
 done
