@@ -704,7 +704,7 @@ TEST(BagDataset, Lz4PrefixesOfLinkedMultiBlockFrames) {
   for (const std::size_t wanted : {0, 1, 1000, 65535, 65536, 65537, 200000, 299999, 300000, 400000}) {
     SCOPED_TRACE(wanted);
     const std::size_t n = std::min(wanted, content.size());
-    const std::vector<std::uint8_t> expected(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(n));
+    const ByteBuffer expected(content.begin(), content.begin() + static_cast<std::ptrdiff_t>(n));
     EXPECT_EQ(lz4_frame_decompress_prefix(frame.data(), frame.size(), wanted, "f", 0), expected);
     const std::size_t part = std::min(frame.size(), wanted + wanted / 128 + 4096);  // as the ROS 1 reader reads
     EXPECT_EQ(lz4_frame_decompress_prefix(frame.data(), part, wanted, "f", 0), expected);

@@ -51,9 +51,9 @@ void learn_from_samples(const BagReader& r, std::uint32_t topic, const std::vect
   std::map<std::string, std::size_t> conventions;
   double points = 0.0;
   for (std::size_t i : sample_indexes(refs.size())) {
-    const std::vector<std::uint8_t> bytes = r.read(refs[i]);
+    const BagReader::SharedMessage message = r.read_shared(refs[i]);
     PointCloudInfo info;
-    const Sweep sweep = decode_sweep(bytes, enc, where_of(r, topic, i), &info);
+    const Sweep sweep = decode_sweep(message.bytes, enc, where_of(r, topic, i), &info);
     ++counters.clouds_decoded;
     offsets.push_back(sweep.t_end_s - info.header_stamp_s);
     points += static_cast<double>(sweep.size());
@@ -166,8 +166,9 @@ FrameSource make_frame_source(std::shared_ptr<const BagReader> reader, std::uint
   loader->counters = std::move(counters);
   source.load = [loader](std::size_t i) {
     const BagReader& r = *loader->reader;
-    const std::vector<std::uint8_t> bytes = r.read(loader->refs.at(i));
-    Sweep sweep = decode_sweep(bytes, r.topics()[loader->topic].encoding,
+    // Decoded where the reader holds the message (its decompressed chunk): no copy of the cloud.
+    const BagReader::SharedMessage message = r.read_shared(loader->refs.at(i));
+    Sweep sweep = decode_sweep(message.bytes, r.topics()[loader->topic].encoding,
                                fmt::format("{} {} frame {}", r.path().string(), r.topics()[loader->topic].name, i));
     ++loader->counters->clouds_decoded;
     sweep.name = loader->names[i];

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -51,6 +52,20 @@ class BagReader {
   /// The serialized bytes of one message. Thread-safe (stages load sweeps in parallel).
   /// Throws InputError(file, "byte N", what) for a corrupt or truncated record.
   virtual std::vector<std::uint8_t> read(const MessageRef& ref) const = 0;
+
+  /// One message's bytes where they already lie: inside a decompressed chunk that `owner` keeps
+  /// alive, so that a 5 MB point cloud is decoded straight out of its chunk instead of copied out
+  /// first. `bytes` is valid as long as `owner` is held.
+  struct SharedMessage {
+    std::shared_ptr<const void> owner;
+    std::span<const std::uint8_t> bytes;
+  };
+  /// The whole message like read(), without the copy where the reader can avoid it (this
+  /// default copies). Thread-safe like read().
+  virtual SharedMessage read_shared(const MessageRef& ref) const {
+    auto bytes = std::make_shared<const std::vector<std::uint8_t>>(read(ref));
+    return {bytes, std::span<const std::uint8_t>(*bytes)};
+  }
 
   /// The first `max_bytes` bytes of one message (all of it when shorter): enough for header.stamp
   /// and a PointCloud2's layout without its points. This default reads the whole message; readers

@@ -25,8 +25,8 @@ struct DecompressionContext {
 
 }  // namespace
 
-std::vector<std::uint8_t> lz4_frame_decompress(const std::uint8_t* data, std::size_t size, std::size_t expected_size,
-                                               const std::string& file, std::uint64_t byte_offset) {
+ByteBuffer lz4_frame_decompress(const std::uint8_t* data, std::size_t size, std::size_t expected_size,
+                                const std::string& file, std::uint64_t byte_offset) {
   const std::string where = "byte " + std::to_string(byte_offset);
   // Each input byte of an LZ4 sequence expands to at most 255 output bytes.
   if (expected_size / 256 > size + 64) {
@@ -34,7 +34,7 @@ std::vector<std::uint8_t> lz4_frame_decompress(const std::uint8_t* data, std::si
                      "lz4 data of " + std::to_string(size) + " bytes cannot hold the " + std::to_string(expected_size) +
                          " bytes its record claims (corrupt size)");
   }
-  std::vector<std::uint8_t> out(expected_size);
+  ByteBuffer out(expected_size);
   DecompressionContext dctx;
   std::size_t in_pos = 0, out_pos = 0, hint = 1;
   while (in_pos < size) {
@@ -70,12 +70,12 @@ std::uint32_t le32(const std::uint8_t* p) {
 
 }  // namespace
 
-std::vector<std::uint8_t> lz4_frame_decompress_prefix(const std::uint8_t* data, std::size_t size, std::size_t wanted,
-                                                      const std::string& file, std::uint64_t byte_offset) {
+ByteBuffer lz4_frame_decompress_prefix(const std::uint8_t* data, std::size_t size, std::size_t wanted,
+                                       const std::string& file, std::uint64_t byte_offset) {
   const auto fail = [&](const std::string& what) {
     throw InputError(file, "byte " + std::to_string(byte_offset), "corrupt lz4 data: " + what);
   };
-  std::vector<std::uint8_t> out(wanted);
+  ByteBuffer out(wanted);
   std::size_t in = 0, produced = 0;
   while (produced < wanted && in + 7 <= size) {  // frame by frame
     if (le32(data + in) != kFrameMagic) fail("no LZ4 frame magic where a frame should start");

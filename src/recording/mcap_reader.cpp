@@ -4,7 +4,6 @@
 #include <lz4frame.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#include <zlib.h>
 #include <zstd.h>
 
 #include <algorithm>
@@ -16,11 +15,14 @@
 #include <mutex>
 #include <optional>
 #include <set>
+#include <span>
 #include <tuple>
 #include <unordered_map>
 #include <utility>
 
 #include "core/errors.hpp"
+#include "recording/byte_buffer.hpp"
+#include "recording/crc32.hpp"
 #include "recording/lz4_frame.hpp"
 #include "recording/mcap.hpp"
 
@@ -28,10 +30,9 @@ namespace insalign::io::bag {
 
 namespace mcap_format {
 
-// zlib's crc32 (the same IEEE polynomial): chunk and data-section CRCs cover gigabytes, and its
-// braided tables run about twice as fast as a slicing-by-8 one.
+// Chunk and data-section CRCs cover gigabytes: the carry-less-multiply CRC (crc32.hpp).
 std::uint32_t crc32_update(std::uint32_t crc, const std::uint8_t* data, std::size_t size) {
-  return static_cast<std::uint32_t>(::crc32_z(crc, data, size));
+  return crc32_ieee(crc, data, size);
 }
 
 }  // namespace mcap_format
@@ -42,7 +43,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace mcap_format;
-using Bytes = std::vector<std::uint8_t>;
+using Bytes = ByteBuffer;                      // file pieces and chunk records: not zeroed
+using Message = std::vector<std::uint8_t>;     // what read() returns
 
 std::string at_byte(std::uint64_t offset) { return "byte " + std::to_string(offset); }
 
@@ -474,6 +476,7 @@ class McapReader final : public BagReader {
   std::vector<MessageRef> messages(std::uint32_t topic) const override;
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
   std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
+  SharedMessage read_shared(const MessageRef& ref) const override;
   void read_batch(const std::vector<BatchRequest>& requests, const BatchHandler& on) const override;
   std::string describe() const override;
   const std::vector<std::string>& warnings() const override { return warnings_; }
@@ -507,14 +510,16 @@ class McapReader final : public BagReader {
   std::shared_ptr<const Bytes> chunk_records(std::size_t chunk) const;
   Bytes chunk_prefix(std::size_t chunk, std::uint64_t want) const;
   void check_readable(const MessageRef& ref) const;
-  Bytes read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const;
-  Bytes from_records(const Bytes& records, std::size_t chunk, const MessageRef& ref, std::uint64_t max_bytes) const;
+  Message read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const;
+  Message from_records(const Bytes& records, std::size_t chunk, const MessageRef& ref, std::uint64_t max_bytes) const;
   std::uint64_t needed_end(std::size_t chunk, std::uint64_t inner, std::uint64_t max_bytes) const;
   void serve_chunk(const std::vector<BatchRequest>& requests, const std::vector<std::size_t>& run,
                    const BatchHandler& on) const;
   bool take_crc_check(std::size_t chunk) const;
-  Bytes message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset, std::uint32_t topic,
+  Message message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset, std::uint32_t topic,
                      std::uint64_t max_bytes) const;
+  std::span<const std::uint8_t> message_view(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset,
+                                             std::uint32_t topic, std::uint64_t max_bytes) const;
   Bytes load_chunk(std::size_t chunk) const;
   std::uint32_t topic_of(std::uint16_t channel, std::uint64_t offset) const;
 
@@ -980,10 +985,18 @@ void McapReader::check_readable(const MessageRef& ref) const {
   if (ref.locator > chunks_.size()) throw InputError(name(), "", "message reference to a chunk this file does not have");
 }
 
+/// A copy of message_view().
+Message McapReader::message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset,
+                               std::uint32_t topic, std::uint64_t max_bytes) const {
+  const std::span<const std::uint8_t> data = message_view(record, available, offset, topic, max_bytes);
+  return {data.begin(), data.end()};
+}
+
 /// The first `max_bytes` of the data of the message record at `record`, of which `available`
 /// bytes are at hand (at least enough for those). `offset`: the record or its chunk, for errors.
-Bytes McapReader::message_data(const std::uint8_t* record, std::uint64_t available, std::uint64_t offset,
-                               std::uint32_t topic, std::uint64_t max_bytes) const {
+std::span<const std::uint8_t> McapReader::message_view(const std::uint8_t* record, std::uint64_t available,
+                                                       std::uint64_t offset, std::uint32_t topic,
+                                                       std::uint64_t max_bytes) const {
   Cursor c(record, static_cast<std::size_t>(available), name(), offset, "message");
   const std::uint8_t opcode = c.u8();
   const std::uint64_t length = c.u64();
@@ -993,11 +1006,10 @@ Bytes McapReader::message_data(const std::uint8_t* record, std::uint64_t availab
   (void)c.take(kMessageHeaderBytes);
   if (topic_of(h.channel, offset) != topic) c.fail("a message index points to a message of another channel");
   const std::uint64_t size = std::min(length - kMessageHeaderBytes, max_bytes);
-  const std::uint8_t* data = c.take(size);
-  return {data, data + size};
+  return {c.take(size), static_cast<std::size_t>(size)};
 }
 
-Bytes McapReader::read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const {
+Message McapReader::read_bytes(const MessageRef& ref, std::uint64_t max_bytes) const {
   check_readable(ref);
   const std::uint64_t offset = ref.locator2;
   if (ref.locator == 0) {  // a message outside chunks: ref.locator2 is its file offset
@@ -1024,7 +1036,7 @@ Bytes McapReader::read_bytes(const MessageRef& ref, std::uint64_t max_bytes) con
 }
 
 /// The message `ref` of chunk `chunk` out of its (possibly partial) decompressed records.
-Bytes McapReader::from_records(const Bytes& records, std::size_t chunk, const MessageRef& ref, std::uint64_t max_bytes) const {
+Message McapReader::from_records(const Bytes& records, std::size_t chunk, const MessageRef& ref, std::uint64_t max_bytes) const {
   const std::uint64_t chunk_at = chunks_[chunk].offset;
   if (ref.locator2 > records.size()) throw InputError(name(), at_byte(chunk_at), "message index points past the chunk's end");
   return message_data(records.data() + ref.locator2, records.size() - ref.locator2, chunk_at, ref.topic, max_bytes);
@@ -1089,6 +1101,19 @@ std::vector<std::uint8_t> McapReader::read(const MessageRef& ref) const {
 
 std::vector<std::uint8_t> McapReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
   return read_bytes(ref, max_bytes);
+}
+
+BagReader::SharedMessage McapReader::read_shared(const MessageRef& ref) const {
+  check_readable(ref);
+  if (ref.locator == 0) return BagReader::read_shared(ref);  // outside chunks: read from the file
+  const std::size_t chunk = static_cast<std::size_t>(ref.locator - 1);
+  const std::shared_ptr<const Bytes> records = chunk_records(chunk);
+  if (ref.locator2 >= records->size()) {
+    throw InputError(name(), at_byte(chunks_[chunk].offset), "message index points past the chunk's end");
+  }
+  const std::uint64_t all = std::numeric_limits<std::uint64_t>::max() - kMessageHeaderBytes - kRecordHeaderBytes;
+  return {records, message_view(records->data() + ref.locator2, records->size() - ref.locator2, chunks_[chunk].offset,
+                                ref.topic, all)};
 }
 
 std::string McapReader::describe() const {

@@ -24,12 +24,14 @@
 #include <unordered_map>
 
 #include "core/errors.hpp"
+#include "recording/byte_buffer.hpp"
 #include "recording/lz4_frame.hpp"
 
 namespace insalign::io::bag {
 namespace {
 
-using Bytes = std::vector<std::uint8_t>;
+using Bytes = ByteBuffer;  // file pieces and decompressed chunks: not zeroed before they are written
+using Message = std::vector<std::uint8_t>;  // what read() returns
 using ByteSpan = std::span<const std::uint8_t>;
 
 constexpr std::size_t kMaxRecordHeaderBytes = 64 * 1024;  // real headers hold a few short fields
@@ -380,7 +382,11 @@ Chunk chunk_from_record(const Record& r) {
 // ---------------------------------------------------------------------------------------------
 // Decompression.
 
-Bytes bz2_decompress(const Bytes& in, std::size_t expected, const std::string& file, std::uint64_t at) {
+// All `expected` bytes, or (wanted < expected) only the first `wanted`: bzip2 decodes block by
+// block (900 kB of data each), so the INS messages and the header of the cloud at the start of a
+// recorder's chunk cost its first block, not the 5 MB cloud behind them.
+Bytes bz2_decompress(const Bytes& in, std::size_t expected, const std::string& file, std::uint64_t at,
+                     std::size_t wanted = SIZE_MAX) {
   bz_stream s{};
   if (BZ2_bzDecompressInit(&s, 0, 0) != BZ_OK) throw std::bad_alloc();
   struct End {
@@ -389,7 +395,8 @@ Bytes bz2_decompress(const Bytes& in, std::size_t expected, const std::string& f
   } end{&s};
   const auto fail = [&](const std::string& what) { throw InputError(file, at_byte(at), what); };
   // Grown as output appears, so that a corrupt size claim cannot allocate gigabytes up front.
-  Bytes out(std::min(expected + 1, in.size() * 8 + 65536));
+  const bool prefix = wanted < expected;
+  Bytes out(prefix ? wanted : std::min(expected + 1, in.size() * 8 + 65536));
   s.next_in = const_cast<char*>(reinterpret_cast<const char*>(in.data()));
   s.avail_in = static_cast<unsigned>(in.size());
   std::size_t produced = 0;
@@ -404,6 +411,7 @@ Bytes bz2_decompress(const Bytes& in, std::size_t expected, const std::string& f
     if (ret != BZ_OK) fail(ret == BZ_DATA_ERROR_MAGIC ? "the bz2 chunk's data is not bz2 data" : "corrupt bz2 chunk data");
     if (s.avail_out > 0 && s.avail_in == 0) fail("bz2 chunk data ends before its stream does (truncated)");
     if (produced == out.size()) {
+      if (prefix) return out;
       if (out.size() > expected) break;
       out.resize(std::min(expected + 1, out.size() * 2));
     }
@@ -431,9 +439,15 @@ Bytes decompress_chunk(const BagFile& file, const Chunk& chunk) {
 }
 
 // The first `wanted` bytes of a chunk's data: an lz4 chunk is decompressed (and read from the file)
-// only that far, so the small messages before a cloud cost no cloud; bz2 and uncompressed: all.
+// only that far, a bz2 chunk as far as the blocks that hold them, so the small messages before a
+// cloud cost no cloud; uncompressed: all.
 Bytes decompress_chunk_prefix(const BagFile& file, const Chunk& chunk, std::size_t wanted) {
-  if (chunk.compression != ChunkCompression::kLz4 || wanted >= chunk.size) return decompress_chunk(file, chunk);
+  if (chunk.compression == ChunkCompression::kNone || wanted >= chunk.size) return decompress_chunk(file, chunk);
+  if (chunk.compression == ChunkCompression::kBz2) {
+    Bytes stored(chunk.data_len);
+    file.read(chunk.data_pos, stored.data(), stored.size());
+    return bz2_decompress(stored, chunk.size, file.name(), chunk.pos, wanted);
+  }
   // LZ4 expands every input byte to at least 255/256 of an output byte: this much input suffices.
   const std::size_t stored_bytes = std::min<std::size_t>(chunk.data_len, wanted + wanted / 128 + 4096);
   Bytes stored(stored_bytes);
@@ -820,6 +834,7 @@ class Ros1BagReader final : public BagReader {
   }
   std::vector<std::uint8_t> read(const MessageRef& ref) const override;
   std::vector<std::uint8_t> read_prefix(const MessageRef& ref, std::size_t max_bytes) const override;
+  SharedMessage read_shared(const MessageRef& ref) const override;
   std::string describe() const override;
   const std::vector<std::string>& warnings() const override { return c_.warnings; }
   std::int64_t start_time_ns() const override { return c_.start_ns; }
@@ -828,6 +843,7 @@ class Ros1BagReader final : public BagReader {
 
  private:
   std::shared_ptr<const Bytes> chunk_data(std::uint64_t locator, std::uint64_t until) const;
+  SharedMessage message_in_chunk(const MessageRef& ref, std::uint64_t probe) const;
   static std::optional<std::uint64_t> record_end(const Bytes& data, std::uint64_t pos);
   const Chunk& chunk_of(const MessageRef& ref) const;
 
@@ -879,7 +895,7 @@ std::vector<std::uint8_t> Ros1BagReader::read(const MessageRef& ref) const {
     // Straight from the file: a 3 MB point cloud costs one read of its bytes.
     FileSource src(file_, chunk.data_pos + chunk.data_len);
     const Record r = message_record(src, chunk.data_pos + ref.locator2, ref);
-    Bytes out(r.data_len);
+    Message out(r.data_len);
     if (r.data_len > kReadAheadBytes) {
       file_.read(r.data_pos, out.data(), out.size());
     } else {
@@ -888,14 +904,29 @@ std::vector<std::uint8_t> Ros1BagReader::read(const MessageRef& ref) const {
     }
     return out;
   }
-  // The chunk as far as the record's header, then as far as its end: reading the INS messages
-  // before a cloud does not decompress the cloud.
-  std::shared_ptr<const Bytes> data = chunk_data(ref.locator, ref.locator2 + kReadAheadBytes);
+  const SharedMessage m = message_in_chunk(ref, ref.locator2 + kReadAheadBytes);
+  return Message(m.bytes.begin(), m.bytes.end());
+}
+
+BagReader::SharedMessage Ros1BagReader::read_shared(const MessageRef& ref) const {
+  const Chunk& chunk = chunk_of(ref);
+  if (chunk.compression == ChunkCompression::kNone) return BagReader::read_shared(ref);  // one read, no chunk
+  // This is the read of a cloud, which fills its chunk: a bz2 chunk not at hand is decompressed
+  // whole at once (a first look at the record's header would decode its first block twice).
+  const bool whole = chunk.compression == ChunkCompression::kBz2;
+  return message_in_chunk(ref, whole ? chunk.size : ref.locator2 + kReadAheadBytes);
+}
+
+// A message of a compressed chunk: the chunk as far as `probe` (enough for the record's header),
+// then as far as the record's end: reading the INS messages before a cloud does not decompress
+// the cloud.
+BagReader::SharedMessage Ros1BagReader::message_in_chunk(const MessageRef& ref, std::uint64_t probe) const {
+  const Chunk& chunk = chunk_of(ref);
+  std::shared_ptr<const Bytes> data = chunk_data(ref.locator, probe);
   data = chunk_data(ref.locator, record_end(*data, ref.locator2).value_or(chunk.size));
   ChunkSource src(*data, chunk, file_.name());
   const Record r = message_record(src, ref.locator2, ref);
-  const ByteSpan bytes = src.get(r.data_pos, r.data_len, "message data");
-  return Bytes(bytes.begin(), bytes.end());
+  return {data, src.get(r.data_pos, r.data_len, "message data")};
 }
 
 std::vector<std::uint8_t> Ros1BagReader::read_prefix(const MessageRef& ref, std::size_t max_bytes) const {
@@ -903,14 +934,14 @@ std::vector<std::uint8_t> Ros1BagReader::read_prefix(const MessageRef& ref, std:
   if (chunk.compression == ChunkCompression::kNone) {
     FileSource src(file_, chunk.data_pos + chunk.data_len);
     const Record r = message_record(src, chunk.data_pos + ref.locator2, ref);
-    Bytes out(std::min<std::size_t>(r.data_len, max_bytes));
+    Message out(std::min<std::size_t>(r.data_len, max_bytes));
     file_.read(r.data_pos, out.data(), out.size());
     return out;
   }
   std::shared_ptr<const Bytes> data = chunk_data(ref.locator, ref.locator2 + kReadAheadBytes + max_bytes);
   const std::optional<std::uint64_t> end = record_end(*data, ref.locator2);
   if (!end) {  // no header where the index points: the whole read says what is wrong
-    Bytes all = read(ref);
+    Message all = read(ref);
     all.resize(std::min(all.size(), max_bytes));
     return all;
   }
@@ -930,12 +961,12 @@ std::vector<std::uint8_t> Ros1BagReader::read_prefix(const MessageRef& ref, std:
       where.fail("the index points at a message of another topic");
     }
     const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(max_bytes, data->size() - data_pos));
-    return Bytes(data->begin() + static_cast<std::ptrdiff_t>(data_pos), data->begin() + static_cast<std::ptrdiff_t>(data_pos + n));
+    return Message(data->begin() + static_cast<std::ptrdiff_t>(data_pos), data->begin() + static_cast<std::ptrdiff_t>(data_pos + n));
   }
   ChunkSource src(*data, chunk, file_.name());
   const Record r = message_record(src, ref.locator2, ref);
   const ByteSpan bytes = src.get(r.data_pos, std::min<std::size_t>(r.data_len, max_bytes), "message data");
-  return Bytes(bytes.begin(), bytes.end());
+  return Message(bytes.begin(), bytes.end());
 }
 
 std::string Ros1BagReader::describe() const {
