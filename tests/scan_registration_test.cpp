@@ -98,7 +98,7 @@ TEST(ScanRegistration, NearestWithMemoAnswersAsAFreshSearch) {
 }
 
 // The map check's target fits normals in parallel only where the sweeps land (fit_normals): each
-// the same as fitting all of them up front, and the points never asked are left unfitted work.
+// the same as fitting all of them up front.
 TEST(ScanRegistration, NormalsFittedInParallelAreTheUpFrontOnes) {
   std::mt19937 rng(3);
   const std::vector<Vec3> target = voxel_centroids(plane_scene(rng), 0.2);
