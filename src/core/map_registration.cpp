@@ -68,8 +68,8 @@ System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_
   return sys;
 }
 
-// The map's normals are fitted only where a sweep point lands (the map has ~10x the points the
-// registration meets): between the parallel searches and the parallel sums, by fit_normals.
+// The map's normals are fitted only where a sweep point lands (not every map point is met), in
+// parallel, between the parallel searches and the parallel sums (fit_normals).
 System total_system(const std::vector<PlacedSweep>& sweeps, const PlaneTarget& map, const Iso3& T_ins_lidar,
                     double gate_m, double huber_m, LastMatches& last) {
   std::vector<std::vector<std::uint32_t>> match(sweeps.size());
