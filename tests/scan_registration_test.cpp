@@ -97,5 +97,26 @@ TEST(ScanRegistration, NearestWithMemoAnswersAsAFreshSearch) {
   EXPECT_GT(same, asked / 2);
 }
 
+// The map check's target fits normals in parallel only where the sweeps land (fit_normals): each
+// the same as fitting all of them up front.
+TEST(ScanRegistration, NormalsFittedInParallelAreTheUpFrontOnes) {
+  std::mt19937 rng(3);
+  const std::vector<Vec3> target = voxel_centroids(plane_scene(rng), 0.2);
+  const PlaneTarget all(target, 8, 0.08, NormalFit::kUpFront);
+  const PlaneTarget lazy(target, 8, 0.08, NormalFit::kOnDemand);
+  std::uniform_int_distribution<std::uint32_t> pick(0, static_cast<std::uint32_t>(target.size() - 1));
+  std::vector<std::uint32_t> asked = {NearestMemo::kNoIndex};
+  for (int i = 0; i < 2000; ++i) asked.push_back(pick(rng));
+  asked.push_back(asked.back());  // a repeat
+  lazy.fit_normals(asked);
+  int planar = 0;
+  for (std::uint32_t i : asked) {
+    if (i == NearestMemo::kNoIndex) continue;
+    EXPECT_EQ(lazy.normal(i), all.normal(i)) << "point " << i;
+    planar += !all.normal(i).isZero();
+  }
+  EXPECT_GT(planar, 1000);  // most scene points lie on a plane: the comparison is not of zeros
+}
+
 }  // namespace
 }  // namespace insalign

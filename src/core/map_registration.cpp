@@ -33,18 +33,30 @@ struct System {
 // Each point's last nearest-neighbour search, per sweep (PlaneTarget::nearest).
 using LastMatches = std::vector<std::vector<NearestMemo>>;
 
-System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_ins_lidar, double gate_m,
-                    double huber_m, std::vector<NearestMemo>& last) {
-  System sys;
+// Each point's nearest map point within the gate (NearestMemo::kNoIndex: none): the search only
+// reads the map, so the sweeps search in parallel.
+std::vector<std::uint32_t> sweep_matches(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_ins_lidar,
+                                         double gate_m, std::vector<NearestMemo>& last) {
+  std::vector<std::uint32_t> match(s.p_lidar.size(), NearestMemo::kNoIndex);
   last.resize(s.p_lidar.size());
+  for (std::size_t i = 0; i < s.p_lidar.size(); ++i) {
+    const std::optional<std::size_t> j = map.nearest(s.T_world_ins[i] * (T_ins_lidar * s.p_lidar[i]), gate_m, last[i]);
+    if (j) match[i] = static_cast<std::uint32_t>(*j);
+  }
+  return match;
+}
+
+System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_ins_lidar,
+                    const std::vector<std::uint32_t>& match, double huber_m) {
+  System sys;
   for (std::size_t i = 0; i < s.p_lidar.size(); ++i) {
     const Vec3 p_ins = T_ins_lidar * s.p_lidar[i];
     const Vec3 p_world = s.T_world_ins[i] * p_ins;
     ++sys.fit.points;
-    const std::optional<std::size_t> j = map.nearest(p_world, gate_m, last[i]);
-    if (!j || map.normal(*j).isZero()) continue;
-    const Vec3 n_ins = s.T_world_ins[i].linear().transpose() * map.normal(*j);
-    const double r = map.normal(*j).dot(p_world - map.point(*j));
+    if (match[i] == NearestMemo::kNoIndex || map.normal(match[i]).isZero()) continue;
+    const std::size_t j = match[i];
+    const Vec3 n_ins = s.T_world_ins[i].linear().transpose() * map.normal(j);
+    const double r = map.normal(j).dot(p_world - map.point(j));
     Vec6 J;
     J << n_ins, p_ins.cross(n_ins);
     const double w = std::abs(r) <= huber_m ? 1.0 : huber_m / std::abs(r);
@@ -56,12 +68,20 @@ System sweep_system(const PlacedSweep& s, const PlaneTarget& map, const Iso3& T_
   return sys;
 }
 
+// The map's normals are fitted only where a sweep point lands (not every map point is met), in
+// parallel, between the parallel searches and the parallel sums (fit_normals).
 System total_system(const std::vector<PlacedSweep>& sweeps, const PlaneTarget& map, const Iso3& T_ins_lidar,
                     double gate_m, double huber_m, LastMatches& last) {
-  std::vector<System> per(sweeps.size());
+  std::vector<std::vector<std::uint32_t>> match(sweeps.size());
   last.resize(sweeps.size());
   tbb::parallel_for(std::size_t{0}, sweeps.size(),
-                    [&](std::size_t k) { per[k] = sweep_system(sweeps[k], map, T_ins_lidar, gate_m, huber_m, last[k]); });
+                    [&](std::size_t k) { match[k] = sweep_matches(sweeps[k], map, T_ins_lidar, gate_m, last[k]); });
+  std::vector<std::uint32_t> all;
+  for (const std::vector<std::uint32_t>& m : match) all.insert(all.end(), m.begin(), m.end());
+  map.fit_normals(all);
+  std::vector<System> per(sweeps.size());
+  tbb::parallel_for(std::size_t{0}, sweeps.size(),
+                    [&](std::size_t k) { per[k] = sweep_system(sweeps[k], map, T_ins_lidar, match[k], huber_m); });
   System sum;
   for (const System& s : per) sum.add(s);
   sum.fit.rms_m = sum.fit.inliers ? std::sqrt(sum.sum_sq / double(sum.fit.inliers)) : 0.0;
@@ -77,7 +97,8 @@ struct MapRegistration::Sweeps {
 std::shared_ptr<const PlaneTarget> map_target(const std::vector<Vec3f>& map_world, const MapRegistrationConfig& config) {
   std::vector<Vec3> target(map_world.size());
   std::transform(map_world.begin(), map_world.end(), target.begin(), [](const Vec3f& p) { return p.cast<double>(); });
-  return std::make_shared<const PlaneTarget>(std::move(target), config.normal_neighbours, config.max_plane_thickness_m);
+  return std::make_shared<const PlaneTarget>(std::move(target), config.normal_neighbours, config.max_plane_thickness_m,
+                                             NormalFit::kOnDemand);
 }
 
 MapRegistration::MapRegistration(const FrameStore& store, const std::vector<Vec3f>& map_world, double time_offset_s,

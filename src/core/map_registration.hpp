@@ -86,7 +86,8 @@ struct MapRegistrationResult {
   MapFit end;    ///< how the result fits it
 };
 
-/// The map as a registration target (kd-tree and normals), to share between registrations.
+/// The map as a registration target (kd-tree; a point's normal fitted when a registration first
+/// lands on it), to share between registrations that run one after another.
 std::shared_ptr<const PlaneTarget> map_target(const std::vector<Vec3f>& map_world, const MapRegistrationConfig& config);
 
 /// A LiDAR's sweeps (frames of `store`, each point placed at its own time + time_offset_s) against

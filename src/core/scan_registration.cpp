@@ -5,7 +5,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <unordered_map>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <Eigen/Eigenvalues>
 #include <nanoflann.hpp>
@@ -38,19 +42,34 @@ PlaneTarget::PlaneTarget(std::vector<Vec3> points, int normal_neighbours, double
       normals_(points_.size(), Vec3::Zero()),
       fitted_(points_.size(), 0),
       tree_(std::make_unique<Tree>(points_)) {
-  if (fit == NormalFit::kUpFront)
-    for (std::size_t i = 0; i < points_.size(); ++i) fit_normal(i);
+  if (fit != NormalFit::kUpFront) return;
+  std::vector<std::uint32_t> all(points_.size());
+  std::iota(all.begin(), all.end(), std::uint32_t{0});
+  fit_normals(all);
 }
 
 PlaneTarget::~PlaneTarget() = default;
 PlaneTarget::PlaneTarget(PlaneTarget&&) noexcept = default;
 PlaneTarget& PlaneTarget::operator=(PlaneTarget&&) noexcept = default;
 
-void PlaneTarget::fit_normal(std::size_t i) const {
+void PlaneTarget::fit_normals(const std::vector<std::uint32_t>& indices) const {
+  std::vector<std::uint32_t> todo;
+  for (std::uint32_t i : indices)
+    if (i < points_.size() && !fitted_[i]) todo.push_back(i);
+  std::sort(todo.begin(), todo.end());
+  todo.erase(std::unique(todo.begin(), todo.end()), todo.end());
+  // Distinct points write distinct elements; each task its own search scratch.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, todo.size(), 256), [&](const tbb::blocked_range<std::size_t>& r) {
+    std::vector<std::uint32_t> idx;
+    std::vector<double> d2;
+    for (std::size_t k = r.begin(); k < r.end(); ++k) fit_normal(todo[k], idx, d2);
+  });
+}
+
+void PlaneTarget::fit_normal(std::size_t i, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const {
   fitted_[i] = 1;
-  std::vector<std::uint32_t>& idx = knn_index_;
-  idx.resize(neighbours_), knn_d2_.resize(neighbours_);
-  const std::size_t found = tree_->index.knnSearch(points_[i].data(), neighbours_, idx.data(), knn_d2_.data());
+  idx.resize(neighbours_), d2.resize(neighbours_);
+  const std::size_t found = tree_->index.knnSearch(points_[i].data(), neighbours_, idx.data(), d2.data());
   if (found < 3) return;
   Vec3 mean = Vec3::Zero();
   for (std::size_t j = 0; j < found; ++j) mean += points_[idx[j]];

@@ -50,7 +50,8 @@ struct NearestMemo {
 enum class NormalFit {
   kUpFront,   ///< all in the constructor: the target may be shared between threads
   kOnDemand,  ///< each on first use (a scan-to-scan ICP meets a fraction of the target's points);
-              ///< the same normals, but the target must then stay in one thread
+              ///< the same normals, but the target must then stay in one thread, or its users
+              ///< fit the normals they will read first (fit_normals) and then only read
 };
 
 /// A target cloud ready for point-to-plane association: a kd-tree and, per point, the normal of
@@ -75,14 +76,18 @@ class PlaneTarget {
   const Vec3& point(std::size_t i) const { return points_[i]; }
   /// Zero where point i has no normal.
   const Vec3& normal(std::size_t i) const {
-    if (!fitted_[i]) fit_normal(i);
+    if (!fitted_[i]) fit_normal(i, knn_index_, knn_d2_);
     return normals_[i];
   }
   std::size_t size() const { return points_.size(); }
+  /// Fits the normals of `indices` (repeats and kNoIndex allowed) not fitted yet, in parallel: the
+  /// same normals as normal() fits one at a time. Not concurrently with any other call; after it,
+  /// normal() of those points only reads, so threads may share the target.
+  void fit_normals(const std::vector<std::uint32_t>& indices) const;
 
  private:
   struct Tree;
-  void fit_normal(std::size_t i) const;
+  void fit_normal(std::size_t i, std::vector<std::uint32_t>& idx, std::vector<double>& d2) const;
   std::vector<Vec3> points_;
   std::size_t neighbours_;
   double max_thickness_m_;
