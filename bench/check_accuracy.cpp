@@ -46,6 +46,7 @@ struct Options {
   int threads = 0;                     // 0: TBB's default
   std::string jsonl;                   // append one JSON line per drive here
   std::vector<std::string> from_jsonl; // only print the tables of these files' drives
+  std::vector<std::string> set;        // key=value over the tool's defaults (as insalign --set)
 };
 
 const std::array<sim::TrajectoryKind, 4> kKinds{sim::TrajectoryKind::kCityLoop, sim::TrajectoryKind::kUrbanGrid,
@@ -233,7 +234,7 @@ int run(const Options& o) {
   if (o.threads > 0) threads.emplace(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(o.threads));
   std::ofstream jsonl;
   if (!o.jsonl.empty()) jsonl.open(o.jsonl, std::ios::app);
-  cli::ToolConfig tool;
+  const cli::ToolConfig tool = cli::tool_config_with(o.set);
   Groups groups;
   Tally all;
   fmt::print("| drive | type | LiDAR | mount | INS | traffic | knock (m, deg) | verdict | drifted | not-observable | time offset err / sd (ms) | s |\n"
@@ -285,6 +286,7 @@ int main(int argc, char** argv) {
   app.add_option("--tables-every", o.tables_every, "print the cumulative tables every this many drives (0: at the end only)");
   app.add_option("--threads", o.threads, "at most this many threads (0: all cores)");
   app.add_option("--jsonl", o.jsonl, "append one JSON line per drive (its DOFs, truth and factors) to this file");
+  app.add_option("--set", o.set, "KEY=VALUE over the defaults (as insalign --set), e.g. repeatability.segments=5");
   app.add_option("--from-jsonl", o.from_jsonl, "print the tables of the drives in these --jsonl files (no drive is run)");
   CLI11_PARSE(app, argc, argv);
   return insalign::run(o);

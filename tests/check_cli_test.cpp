@@ -132,6 +132,30 @@ TEST(CheckCli, KnockIsRecalibrateWithTheCorrectionWithinThreeStddev) {
   EXPECT_EQ(again.rc, 0) << again.text;
 }
 
+// A highway's gentle curves cannot show the lever arm or roll; pitch and yaw they do show: those
+// DOFs are held at the installed values and the others still checked (before, the stages stopped
+// and the highway decided nothing).
+TEST(CheckCli, HighwayChecksPitchAndYawAndHoldsTheLeverArm) {
+  const fs::path d = drive("highway_knock", "--trajectory highway --duration-s 120 --traffic 4 --knock \"0 0 0 0 0 0.12\"");
+  const fs::path out = insalign::testing::fresh_dir("check_", "highway");
+  const Check c = check(d, (d / "installed-extrinsic.json").string(), out / "a");
+  EXPECT_EQ(c.rc, 4) << c.text;
+  ASSERT_TRUE(c.out.is_object()) << c.text;
+  EXPECT_EQ(verdict(c, "yaw"), "drifted") << c.text;
+  const json& yaw = c.out["dofs"]["yaw"];
+  EXPECT_LE(std::abs(yaw["correction"].get<double>() - 0.12), 3.0 * yaw["stddev"].get<double>()) << c.text;
+  EXPECT_NE(verdict(c, "pitch"), "drifted") << c.text;
+  for (const char* dof : {"tx", "ty", "roll", "time_offset"}) {
+    EXPECT_EQ(verdict(c, dof), "not-observable") << dof << c.text;
+    EXPECT_TRUE(c.out["dofs"][dof]["stddev"].is_null()) << dof;
+  }
+  EXPECT_TRUE(contains(c.text, "held at the starting values")) << c.text;
+  // The corrected extrinsic: nothing drifted any more.
+  const Check again = check(d, (out / "a" / "corrected" / "extrinsic.json").string(), out / "b");
+  EXPECT_EQ(again.rc, 3) << again.text;
+  for (const char* dof : {"tx", "ty", "roll", "pitch", "yaw"}) EXPECT_NE(verdict(again, dof), "drifted") << dof;
+}
+
 // The same car 10 s later after a knock: its true mount is drive A's knocked, and it still believes
 // drive A's (which is A's truth).
 fs::path later_knocked_city_drive() {

@@ -66,9 +66,16 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
 // the time offset too.
 // tz from stage 1 (not re-estimated per segment) is widened like roll and pitch, whose ground
 // excitation it shares; stage 3's tz is absolute and keeps its own stddev.
+// The widening is measured against stage 2's formal roll and pitch, as stage 1's tz is formal
+// too: the trajectory correction's wider ones gave tz no widening (3.1-3.4 sigma off on real
+// scans, bench/results/honest.md).
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
   const double tz_sd = r.stddev[2];
-  const double tz_inflation = ground_inflation(r.stddev, rep);
+  Vec6 formal = r.stddev;
+  if (r.trajectory.applied && r.refine)
+    for (int i : {0, 1, 3, 4, 5})
+      if (std::isfinite(r.refine->outcome.stddev[i])) formal[i] = r.refine->outcome.stddev[i];
+  const double tz_inflation = ground_inflation(formal, rep);
   r.time_offset_stddev_s = time_offset_stddev_with_repeatability(r.time_offset_stddev_s, r.stddev, rep);
   r.stddev = stddev_with_repeatability(r.stddev, rep);
   r.stddev[2] = r.z.determined() || !r.rough.tz_estimated ? tz_sd : tz_sd * tz_inflation;
@@ -108,6 +115,39 @@ void add_ins_advice(const CalibrationResult& r, std::vector<std::string>& advice
   if (r.trajectory.applied)
     advice.push_back("The INS trajectory drifted and was corrected with the LiDAR: check the INS's RTK status; a drive "
                      "with RTK fixed throughout gives a tighter result.");
+}
+
+// The start's value of each held DOF (translations as they are, rotations as the roll, pitch and
+// yaw of the change from the start), the rest from T.
+Iso3 with_held_from(const Iso3& T, const Iso3& T_start, const std::array<bool, 6>& held) {
+  Iso3 out = T;
+  for (int i = 0; i < 3; ++i)
+    if (held[static_cast<std::size_t>(i)]) out.translation()[i] = T_start.translation()[i];
+  Vec3 rpy = rpy_from_rotation(T.linear() * T_start.linear().transpose());
+  for (int i = 0; i < 3; ++i)
+    if (held[static_cast<std::size_t>(3 + i)]) rpy[i] = 0.0;
+  out.linear() = rotation_from_rpy(rpy) * T_start.linear();
+  return out;
+}
+
+// Stage 1 left some DOFs undetermined: stop, or (config.hold_undetermined, and something is
+// determined) hold them at the start's values for the later stages. The time offset is held with
+// the lever arm: along the travel they move the map alike, and a lever arm held wrong would
+// otherwise show as a wrong offset.
+PipelineConfig hold_undetermined_dofs(const PipelineConfig& config, CalibrationResult& r) {
+  if (r.rough.outcome.status != StageStatus::kUndetermined) return config;
+  std::vector<std::string_view> names;
+  for (int i : {0, 1, 3, 4, 5})
+    if (!r.determined[i]) names.push_back(kDofNames[static_cast<std::size_t>(i)]);
+  if (!config.hold_undetermined || names.size() == 5) stop_if_undetermined(r.rough.outcome);
+  PipelineConfig held = config;
+  for (int i : {0, 1, 3, 4, 5}) held.refine.held[static_cast<std::size_t>(i)] = !r.determined[i];
+  const bool lever_arm = held.refine.held[0] || held.refine.held[1];
+  if (lever_arm) held.refine.estimate_time_offset = false;
+  r.T_ins_lidar = with_held_from(r.T_ins_lidar, r.init.T_ins_lidar, held.refine.held);
+  r.warnings.push_back(fmt::format("this drive does not determine {}: held at the starting values{}, the rest measured",
+                                   fmt::join(names, ", "), lever_arm ? " (the time offset with them)" : ""));
+  return held;
 }
 
 }  // namespace
@@ -242,15 +282,16 @@ void finish_dof_status(const PipelineConfig& config, CalibrationResult& r, std::
   r.warnings.insert(r.warnings.begin(), r.advice.begin(), r.advice.end());
 }
 
-CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config,
+CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig& config_in,
                                   const PipelineProgress& progress_in, const BesideRepeatability& beside) {
   const auto start = std::chrono::steady_clock::now();
   const PipelineProgress progress = [&](std::string_view step, double fraction) {
     if (progress_in) progress_in(step, fraction);
   };
   CalibrationResult r;
-  const FrameStore status_screened = leave_out_status_spans(store, config.ins_screen, r.ins_screen);
-  FrameGroups groups = run_start(status_screened, config, progress, r);  // steps 0-2
+  const FrameStore status_screened = leave_out_status_spans(store, config_in.ins_screen, r.ins_screen);
+  FrameGroups groups = run_start(status_screened, config_in, progress, r, config_in.hold_undetermined);  // steps 0-2
+  const PipelineConfig config = hold_undetermined_dofs(config_in, r);
   // Bad INS stretches the LiDAR shows and points on moving things, found with stage 1's extrinsic
   // and left out of every later step (stage 2 picks its frames again after the checks, the same
   // ones but for those in a span left out).

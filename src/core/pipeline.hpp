@@ -47,6 +47,11 @@ struct PipelineConfig {
   /// stddev includes it, as tz's includes the INS's height error. 0.01 deg: a high-grade
   /// RTK-aided INS in motion; set your INS's figure (its datasheet or its stated heading stddev).
   double ins_heading_sigma_deg = 0.01;
+  /// A drive whose stage 1 determines some of tx, ty, roll, pitch and yaw but not all (a highway:
+  /// the lever arm and roll): true holds the undetermined ones at the start's values through the
+  /// later stages (reported not determined, with no stddev) and measures the rest; false stops
+  /// with the reason. A check sets it (core/check_run); a calibration must determine every DOF.
+  bool hold_undetermined = false;
 };
 
 template <class V>
@@ -54,6 +59,8 @@ void visit_config(V& v, PipelineConfig& c) {
   v("run_refine", c.run_refine, "run stage 2 (false: stop after stage 1)");
   v("ins_height_m", c.ins_height_m, "INS origin height above the ground for stage 3 when there are no fiducials, m (null: unknown)");
   v("ins_heading_sigma_deg", c.ins_heading_sigma_deg, "the INS's heading error over the drive (1 sigma), in yaw's reported stddev, deg");
+  v("hold_undetermined", c.hold_undetermined,
+    "hold the DOFs stage 1 cannot determine at the start's values and measure the rest (false: stop; check sets it)");
   v.section("vehicle", c.vehicle);
   v.section("frames", c.frames);
   v.section("motion", c.motion);

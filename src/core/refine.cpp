@@ -447,9 +447,9 @@ Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eige
 }
 
 std::vector<int> active_dofs(const RefineConfig& c, bool time_offset, bool tz) {
-  std::vector<int> dofs = {0, 1};
-  if (c.estimate_tz || tz) dofs.push_back(2);
-  dofs.insert(dofs.end(), {3, 4, 5});
+  std::vector<int> dofs;
+  for (int d = 0; d < 6; ++d)
+    if (!c.held[static_cast<std::size_t>(d)] && (d != 2 || c.estimate_tz || tz)) dofs.push_back(d);
   if (time_offset) dofs.push_back(kTimeIndex);
   return dofs;
 }

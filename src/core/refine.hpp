@@ -125,6 +125,10 @@ struct RefineConfig {
                                            ///< Gauss-Newton, seconds (0: no scan)
   double time_offset_scan_voxel_m = 0.2;   ///< voxel edge of that scan's occupancy count
   JointConfig joint;                ///< rigs: the joint refinement of several LiDARs
+  /// DOFs [tx ty tz roll pitch yaw] held at their start values whatever the map says, with no
+  /// stddev: set by the pipeline for the DOFs its drive's stage 1 could not determine
+  /// (PipelineConfig::hold_undetermined), not a file option.
+  std::array<bool, 6> held{};
 };
 
 template <class V>

@@ -297,7 +297,7 @@ void remove_yaw_mode(const Layout& layout, const std::vector<Vec3>& knot_p_world
 }
 
 void add_priors(const TrajectoryCorrection& s, const Layout& layout, const TrajectoryCorrectionConfig& config,
-                const std::vector<InsQuality>& quality, bool estimate_offset, MatX& H, VecX& g, double& prior_cost) {
+                const std::vector<InsQuality>& quality, const RefineConfig& refine, MatX& H, VecX& g, double& prior_cost) {
   const int K = layout.knots;
   const double h = s.t_s.size() > 1 ? s.t_s[1] - s.t_s[0] : 1.0;
   const double q2 = config.drift_m_per_sqrt_s * config.drift_m_per_sqrt_s;
@@ -337,9 +337,11 @@ void add_priors(const TrajectoryCorrection& s, const Layout& layout, const Traje
     gauge([&](int k) { return layout.pos(k, axis); }, [&](int k) { return s.position_m[k][axis]; }, kMeanSigmaM);
   if (layout.heading) gauge([&](int k) { return layout.head(k); }, [&](int k) { return s.heading_rad[k]; }, kMeanSigmaRad);
   // tz stays where stage 3 put it (a vertical lever arm is a world shift here); the offset too
-  // unless it is estimated.
+  // unless it is estimated, and the DOFs the pipeline holds.
   std::vector<int> fixed = {2};
-  if (!estimate_offset) fixed.push_back(kOffset);
+  if (!refine.estimate_time_offset) fixed.push_back(kOffset);
+  for (int i : {0, 1, 3, 4, 5})
+    if (refine.held[static_cast<std::size_t>(i)]) fixed.push_back(i);
   for (int i : fixed) {
     H.row(i).setZero();
     H.col(i).setZero();
@@ -418,7 +420,7 @@ struct Solver {
       ne.g /= data_var;
       double prior_cost = 0.0;
       remove_yaw_mode(layout, knot_p_world, ne.H, ne.g);
-      add_priors(s, layout, config, store.data().ins_quality, refine.estimate_time_offset, ne.H, ne.g, prior_cost);
+      add_priors(s, layout, config, store.data().ins_quality, refine, ne.H, ne.g, prior_cost);
       VecX dx = ne.H.ldlt().solve(-ne.g);
       // Trust region: planes re-fitted from a smeared map only point the way for small steps.
       const double rot = dx.segment<3>(3).norm(), trans = dx.head<3>().norm();
@@ -580,6 +582,7 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
   const MatX cov = solver.H_last.ldlt().solve(MatX::Identity(solver.H_last.rows(), solver.H_last.cols()));
   s.outcome.status = StageStatus::kOk;
   for (int i : {0, 1, 3, 4, 5}) {
+    if (refine.held[static_cast<std::size_t>(i)]) continue;  // no stddev: not estimated
     s.outcome.stddev[i] = std::sqrt(std::max(0.0, cov(i, i)));
     s.outcome.determined[static_cast<std::size_t>(i)] = true;
   }
