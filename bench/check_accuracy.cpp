@@ -47,6 +47,7 @@ struct Options {
   std::string jsonl;                   // append one JSON line per drive here
   std::vector<std::string> from_jsonl; // only print the tables of these files' drives
   std::vector<std::string> set;        // key=value over the tool's defaults (as insalign --set)
+  bool why = false;                    // print each drive's per-DOF reasons and warnings
 };
 
 const std::array<sim::TrajectoryKind, 4> kKinds{sim::TrajectoryKind::kCityLoop, sim::TrajectoryKind::kUrbanGrid,
@@ -246,6 +247,7 @@ int run(const Options& o) {
     Dataset data = sim::world_dataset(world);
     const sim::SimLidar& lidar = world->lidars.front();
     data.T_ins_lidar_init = lidar.T_ins_lidar_installed;
+    data.time_offset_init_s = lidar.time_offset_s;
     const FrameStore store = make_frame_store(data, tool.calibrate);
     const CheckRun run = run_check(store, lidar.T_ins_lidar_installed, lidar.time_offset_s, tool.calibrate, tool.check);
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
@@ -266,6 +268,10 @@ int run(const Options& o) {
                enum_name(run.findings.verdict), dof_list(r.dofs, DofVerdictKind::kDrifted),
                dof_list(r.dofs, DofVerdictKind::kNotObservable),
                std::isfinite(off.stddev) ? fmt::format("{:.2f} / {:.2f}", 1e3 * off.correction, 1e3 * off.stddev) : "-", wall);
+    if (o.why) {
+      for (int j = 0; j < 7; ++j) fmt::print("    {}: {}\n", kCheckDofNames[j], run.findings.dofs[j].why);
+      for (const std::string& w : run.findings.warnings) fmt::print("    warning: {}\n", w);
+    }
     std::fflush(stdout);
     if (o.tables_every > 0 && (i - o.first + 1) % o.tables_every == 0 && i + 1 < o.first + o.drives) print_tables(groups, all);
   }
@@ -288,6 +294,7 @@ int main(int argc, char** argv) {
   app.add_option("--jsonl", o.jsonl, "append one JSON line per drive (its DOFs, truth and factors) to this file");
   app.add_option("--set", o.set, "KEY=VALUE over the defaults (as insalign --set), e.g. repeatability.segments=5");
   app.add_option("--from-jsonl", o.from_jsonl, "print the tables of the drives in these --jsonl files (no drive is run)");
+  app.add_flag("--why", o.why, "print each drive's per-DOF reasons and warnings");
   CLI11_PARSE(app, argc, argv);
   return insalign::run(o);
 }

@@ -75,6 +75,7 @@ io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::strin
   l.T_ins_lidar_installed = installed.extrinsic.T_ins_lidar;
   l.time_offset_installed_s = installed.extrinsic.time_offset_s;
   data.T_ins_lidar_init = l.T_ins_lidar_installed;  // global initialisation checks it against the data
+  data.time_offset_init_s = l.time_offset_installed_s;  // what the drive cannot decide stays installed
   const PipelineConfig config = pipeline_config(o, tool.calibrate);
   const FrameStore store = make_frame_store(data, config);
   if (!o.quiet) fmt::print(stderr, "checking {}{} ...\n", name.empty() ? "" : name + " against ", installed.source);

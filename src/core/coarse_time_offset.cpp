@@ -25,35 +25,38 @@ double median_difference_deg(const std::vector<AnglePair>& pairs, const PoseStre
 }  // namespace
 
 CoarseTimeOffset fit_time_offset(const std::vector<AnglePair>& pairs, const PoseStream& poses,
-                                 const CoarseTimeOffsetConfig& config) {
+                                 const CoarseTimeOffsetConfig& config, double reference_s) {
   CoarseTimeOffset out;
+  out.offset_s = out.best_offset_s = reference_s;
   out.pairs = pairs.size();
   if (config.range_s <= 0.0 || config.step_s <= 0.0 || pairs.size() < config.min_pairs) {
     out.explanation = fmt::format("time offset: not searched ({} registered pairs)", pairs.size());
     return out;
   }
-  out.median_at_zero_deg = median_difference_deg(pairs, poses, 0.0, config.min_pairs);
+  out.median_at_zero_deg = median_difference_deg(pairs, poses, reference_s, config.min_pairs);
   const int n = static_cast<int>(std::floor(config.range_s / config.step_s + 1e-9));
   double best = std::numeric_limits<double>::infinity();
   for (int i = -n; i <= n; ++i) {
-    const double offset = i * config.step_s;
+    const double offset = reference_s + i * config.step_s;
     const double m = median_difference_deg(pairs, poses, offset, config.min_pairs);
-    // Ties go to the offset nearest 0.
-    if (m < best || (m == best && std::abs(offset) < std::abs(out.best_offset_s))) best = m, out.best_offset_s = offset;
+    // Ties go to the offset nearest the reference.
+    if (m < best || (m == best && std::abs(offset - reference_s) < std::abs(out.best_offset_s - reference_s)))
+      best = m, out.best_offset_s = offset;
   }
   out.median_at_best_deg = best;
-  const bool far = std::abs(out.best_offset_s) >= config.min_offset_s;
+  const bool far = std::abs(out.best_offset_s - reference_s) >= config.min_offset_s;
   const bool clear = std::isfinite(best) && std::isfinite(out.median_at_zero_deg) &&
                      out.median_at_zero_deg >= config.min_gain * best &&
                      out.median_at_zero_deg - best >= config.min_gain_deg;
   out.applied = far && clear;
-  out.offset_s = out.applied ? out.best_offset_s : 0.0;
+  out.offset_s = out.applied ? out.best_offset_s : reference_s;
   out.explanation = fmt::format(
-      "time offset from the rotation angles of {} pairs: best {:+.3f} s (median |LiDAR - INS angle| {:.3f} deg, at 0 s "
-      "{:.3f} deg): {}",
-      pairs.size(), out.best_offset_s, best, out.median_at_zero_deg,
+      "time offset from the rotation angles of {} pairs: best {:+.3f} s (median |LiDAR - INS angle| {:.3f} deg, at "
+      "{:+.3f} s {:.3f} deg): {}",
+      pairs.size(), out.best_offset_s, best, reference_s, out.median_at_zero_deg,
       out.applied ? "taken (stage 2 refines it)"
-                  : (far ? "not clear enough, 0 kept (stage 2 searches +-its range)" : "left to stage 2"));
+                  : (far ? fmt::format("not clear enough, {:+.3f} s kept (stage 2 searches +-its range)", reference_s)
+                         : "left to stage 2"));
   return out;
 }
 

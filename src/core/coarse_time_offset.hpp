@@ -46,17 +46,18 @@ struct AnglePair {
 };
 
 struct CoarseTimeOffset {
-  bool applied = false;           ///< offset_s is far enough from 0 and the data clearly prefers it
-  double offset_s = 0.0;          ///< t_ins = t_lidar + offset_s (0 when not applied)
+  bool applied = false;           ///< best_offset_s is far enough from the reference and the data clearly prefers it
+  double offset_s = 0.0;          ///< t_ins = t_lidar + offset_s (the reference when not applied)
   double best_offset_s = 0.0;     ///< the search's minimum, applied or not
-  double median_at_zero_deg = 0.0, median_at_best_deg = 0.0;  ///< median |LiDAR - INS angle|
+  double median_at_zero_deg = 0.0, median_at_best_deg = 0.0;  ///< median |LiDAR - INS angle| (at the reference, at best)
   std::size_t pairs = 0;
   std::string explanation;
 };
 
-/// The offset within +-config.range_s whose INS angles match the pairs' LiDAR angles best (median
-/// absolute difference), and whether the data is clear enough to take it.
+/// The offset within reference_s +- config.range_s whose INS angles match the pairs' LiDAR angles
+/// best (median absolute difference), and whether the data is clear enough to take it instead of
+/// reference_s (the offset already known: 0, or the installed one a check is given).
 CoarseTimeOffset fit_time_offset(const std::vector<AnglePair>& pairs, const PoseStream& poses,
-                                 const CoarseTimeOffsetConfig& config);
+                                 const CoarseTimeOffsetConfig& config, double reference_s = 0.0);
 
 }  // namespace insalign

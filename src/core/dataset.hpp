@@ -57,6 +57,9 @@ struct Dataset {
   Vec3 world_origin_m = Vec3::Zero();    ///< subtracted from pose file positions (UTM is large)
   std::vector<Fiducial> fiducials;       ///< same recentred world frame
   std::optional<Iso3> T_ins_lidar_init;  ///< from --init, if given
+  /// The time offset the stages start from (t_ins = t_lidar + offset): the installed one a check
+  /// is given; unset, 0 (the data's coarse search still moves the start where it clearly differs).
+  std::optional<double> time_offset_init_s;
 };
 
 /// An in-memory FrameSource over sweeps already loaded (simulation, tests).

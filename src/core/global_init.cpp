@@ -112,11 +112,11 @@ double score_candidate(const std::vector<std::vector<const InitFrame*>>& groups,
 // The time offset the pairs' rotation angles show (the LiDAR's angle between two sweeps is the
 // INS's between the same instants, whatever the extrinsic).
 CoarseTimeOffset time_offset_of(const std::vector<MotionPair>& motions, const PoseStream& poses,
-                                const CoarseTimeOffsetConfig& config) {
+                                const CoarseTimeOffsetConfig& config, double reference_s) {
   std::vector<AnglePair> angles;
   for (const MotionPair& m : motions)
     angles.push_back({m.t0_s, m.t1_s, Eigen::AngleAxisd(m.T_lev0_lev1.linear()).angle() * kDegPerRad});
-  return fit_time_offset(angles, poses, config);
+  return fit_time_offset(angles, poses, config, reference_s);
 }
 
 // The data's candidates (its estimate turned about the vertical, the coarse one) and the init.
@@ -181,8 +181,10 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
 }
 
 // The data cannot give a start: the init if there is one (unchecked), else undetermined.
-GlobalInitResult cannot_start(const std::optional<Iso3>& T_init, const std::string& why, Clock::time_point t0) {
+GlobalInitResult cannot_start(const std::optional<Iso3>& T_init, double time_offset_s, const std::string& why,
+                              Clock::time_point t0) {
   GlobalInitResult result;
+  result.time_offset_s = result.time_offset.offset_s = time_offset_s;
   if (T_init) {
     result.T_ins_lidar = *T_init;
     result.source = InitSource::kInit;
@@ -208,19 +210,25 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
                                       const GlobalInitConfig& config, std::optional<double> ins_height_m) {
   const auto t0 = Clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
+  const double offset_start_s = store.data().time_offset_init_s.value_or(0.0);
   if (T_ins_lidar_init && config.trust_init) {
-    GlobalInitResult result = cannot_start(T_ins_lidar_init, "", t0);
+    GlobalInitResult result = cannot_start(T_ins_lidar_init, offset_start_s, "", t0);
     result.explanation = "init trusted as given (trust_init): not checked against the data, time offset not searched";
     return result;
   }
   const DriveFrames drive = drive_frames(store);
   if (drive.size() < 4) {
-    return cannot_start(T_ins_lidar_init, "fewer than 4 LiDAR frames lie inside the pose file's time span; no "
-                                          "degree of freedom of the extrinsic can be determined", t0);
+    return cannot_start(T_ins_lidar_init, offset_start_s,
+                        "fewer than 4 LiDAR frames lie inside the pose file's time span; no degree of freedom of the "
+                        "extrinsic can be determined",
+                        t0);
   }
   if (drive.distance_m < 2.0) {
-    return cannot_start(T_ins_lidar_init, fmt::format("the vehicle moves only {:.2f} m over the drive; yaw and the horizontal "
-                                              "lever arm of the extrinsic need motion (drive and turn)", drive.distance_m), t0);
+    return cannot_start(T_ins_lidar_init, offset_start_s,
+                        fmt::format("the vehicle moves only {:.2f} m over the drive; yaw and the horizontal lever arm of "
+                                    "the extrinsic need motion (drive and turn)",
+                                    drive.distance_m),
+                        t0);
   }
   const InitPlan plan = plan_frames(drive, store.sweep_period_s(), config);
   std::map<std::size_t, InitFrame> loaded = load_frames(store, drive, plan, config);
@@ -232,7 +240,7 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   std::vector<InitFrame*> all;
   for (auto& [position, f] : loaded) all.push_back(&f);
   const Levelling level = level_lidar(all, config.ground);
-  if (!level.ok) return cannot_start(T_ins_lidar_init, level.message, t0);
+  if (!level.ok) return cannot_start(T_ins_lidar_init, offset_start_s, level.message, t0);
   result.ground_normal_lidar = level.normal_lidar;
   result.lidar_height_m = level.lidar_height_m;
   result.ground_normal_spread_deg = level.normal_spread_deg;
@@ -257,9 +265,9 @@ GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::option
   std::vector<std::pair<const InitFrame*, const InitFrame*>> pairs;
   for (const auto& [a, b] : plan.pairs) pairs.push_back({&loaded.at(a), &loaded.at(b)});
   std::vector<MotionPair> motions = register_pairs(pairs, store.poses(), T_coarse, level, config.hand_eye);
-  result.time_offset = time_offset_of(motions, store.poses(), config.time_offset);
+  result.time_offset = time_offset_of(motions, store.poses(), config.time_offset, offset_start_s);
   result.time_offset_s = result.time_offset.offset_s;
-  if (result.time_offset.applied) set_ins_motions(motions, store.poses(), level, result.time_offset_s);
+  if (result.time_offset_s != 0.0) set_ins_motions(motions, store.poses(), level, result.time_offset_s);
   const PlanarHandEyeResult he = solve_planar_hand_eye(motions, tz_insl_m, config.hand_eye);
   result.hand_eye_s = elapsed() - result.load_s - result.coarse_s;
   Iso3 T_data = T_coarse;

@@ -84,7 +84,8 @@ struct GlobalInitResult {
   StageOutcome outcome;
   Iso3 T_ins_lidar = Iso3::Identity();  ///< the chosen start for stage 1
   /// The time offset stage 1 starts from (t_ins = t_lidar + offset): time_offset.offset_s when the
-  /// data showed one far from 0 (a host-stamped LiDAR), else 0.
+  /// data showed one far from the given start (a host-stamped LiDAR), else the data set's
+  /// time_offset_init_s (a check's installed one) or 0.
   double time_offset_s = 0.0;
   CoarseTimeOffset time_offset;
   InitSource source = InitSource::kData;

@@ -50,6 +50,10 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
                                CalibrationResult& r) {
   RefineConfig refine = config.refine;
   refine.estimate_time_offset = r.refine && r.refine->time_offset_estimated;  // as stage 2 ended
+  if (config.trajectory.hold_lever_arm) {
+    refine.held[0] = refine.held[1] = true;
+    refine.estimate_time_offset = false;  // along the travel it moves the map as tx does
+  }
   progress("trajectory", 0.0);
   r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen);
   progress("trajectory", 1.0);
@@ -57,7 +61,8 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
   r.T_ins_lidar = r.trajectory.T_ins_lidar;
   r.time_offset_s = r.trajectory.time_offset_s;
   if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
-  for (int i : {0, 1, 3, 4, 5}) r.stddev[i] = r.trajectory.outcome.stddev[i];
+  for (int i : {0, 1, 3, 4, 5})
+    if (!refine.held[static_cast<std::size_t>(i)]) r.stddev[i] = r.trajectory.outcome.stddev[i];
   r.warnings.push_back(r.trajectory.decision);
 }
 
@@ -66,9 +71,9 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
 // the time offset too.
 // tz from stage 1 (not re-estimated per segment) is widened like roll and pitch, whose ground
 // excitation it shares; stage 3's tz is absolute and keeps its own stddev.
-// The widening is measured against stage 2's formal roll and pitch, as stage 1's tz is formal
-// too: the trajectory correction's wider ones gave tz no widening (3.1-3.4 sigma off on real
-// scans, bench/results/honest.md).
+// The widening is measured against stage 2's formal stddev, the estimator the segments repeat:
+// against the trajectory correction's (wider, from another estimator) tz got no widening (3.1-3.4
+// sigma off on real scans, bench/results/honest.md) and, mixed with stage 2's, yaw 20x too much.
 void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
   const double tz_sd = r.stddev[2];
   Vec6 formal = r.stddev;
@@ -76,8 +81,8 @@ void apply_repeatability(const RepeatabilityResult& rep, CalibrationResult& r) {
     for (int i : {0, 1, 3, 4, 5})
       if (std::isfinite(r.refine->outcome.stddev[i])) formal[i] = r.refine->outcome.stddev[i];
   const double tz_inflation = ground_inflation(formal, rep);
-  r.time_offset_stddev_s = time_offset_stddev_with_repeatability(r.time_offset_stddev_s, r.stddev, rep);
-  r.stddev = stddev_with_repeatability(r.stddev, rep);
+  r.time_offset_stddev_s = time_offset_stddev_with_repeatability(r.time_offset_stddev_s, formal, rep);
+  r.stddev = stddev_with_repeatability(r.stddev, formal, rep);
   r.stddev[2] = r.z.determined() || !r.rough.tz_estimated ? tz_sd : tz_sd * tz_inflation;
   if (!rep.warning.empty()) r.warnings.push_back(rep.warning);
 }

@@ -154,13 +154,18 @@ Inflations inflations(const Vec6& formal, const RepeatabilityResult& repeatabili
 }  // namespace
 
 Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability) {
+  return stddev_with_repeatability(formal, formal, repeatability);
+}
+
+Vec6 stddev_with_repeatability(const Vec6& formal, const Vec6& segments_formal, const RepeatabilityResult& repeatability) {
   const Vec6& segments = repeatability.stddev_whole_drive;
-  const Inflations inflation = inflations(formal, repeatability);
+  const Inflations inflation = inflations(segments_formal, repeatability);
   Vec6 out = formal;
   for (int i : {0, 1, 3, 4, 5}) {
     if (!std::isfinite(segments[i])) continue;
     const double inflation_i = i == 3 || i == 4 ? inflation.ground : inflation.turns;
-    out[i] = std::max({std::isfinite(formal[i]) ? formal[i] : 0.0, segments[i], inflation_i * formal[i]});
+    const double widened = std::isfinite(segments_formal[i]) ? inflation_i * segments_formal[i] : 0.0;
+    out[i] = std::max({std::isfinite(formal[i]) ? formal[i] : 0.0, segments[i], widened});
   }
   return out;
 }

@@ -88,6 +88,13 @@ double whole_drive_stddev_per_spread(int segments);
 /// DOFs without a finite segment value keep their formal stddev.
 Vec6 stddev_with_repeatability(const Vec6& formal, const RepeatabilityResult& repeatability);
 
+/// The same where the result came from another estimator than the one the segments repeat (the
+/// INS trajectory correction after stage 2): the inflation is measured against and applied to
+/// `segments_formal` (stage 2's formal stddev), the result's own `formal` stays a floor. Pooling
+/// one estimator's stddev with the other's (x from stage 2, yaw from the correction) came out
+/// 20x too wide.
+Vec6 stddev_with_repeatability(const Vec6& formal, const Vec6& segments_formal, const RepeatabilityResult& repeatability);
+
 /// The time offset's stddev to report from its formal one (s) by the same rule as x, y and yaw
 /// (the turns determine it too): the largest of the formal stddev, the segments' whole-drive
 /// stddev, and the formal one times the turns' inflation (`formal`: the six DOFs' formal stddev).
