@@ -61,7 +61,10 @@ PlacedSweep place(const Sweep& sweep, const PoseStream& poses, const Iso3& T_ins
   out.p_world = sweep_to_world(sweep, poses, T_ins_lidar, PlaceOptions{.time_offset_s = time_offset_s});
   const double t_end = sweep.t_end_s + time_offset_s;
   out.origin_end = (poses.T_world_ins(t_end) * T_ins_lidar).translation().cast<float>();
-  out.origin_start = (poses.T_world_ins(t_end - period_s) * T_ins_lidar).translation().cast<float>();
+  // A sweep's first point may be later than one period before its end (covered is checked on its
+  // points' times): the start origin no earlier than the poses begin.
+  const double t_start = std::max(t_end - period_s, poses.t_begin());
+  out.origin_start = (poses.T_world_ins(t_start) * T_ins_lidar).translation().cast<float>();
   out.fraction.resize(sweep.size(), 1.0f);
   if (sweep.has_time())
     for (std::size_t i = 0; i < sweep.size(); ++i)
