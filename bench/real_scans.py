@@ -16,7 +16,7 @@ a DOF reported determined lies within 3 stated sigma (the coverage study on real
 KITTI: the real OXTS poses and KITTI's own calibration as the reference (itself a calibration, not
 a truth); the 3 s drive mostly shows whether the tool says what it cannot determine.
 
-Usage: python3 bench/real_scans.py [--insalign build/insalign] [--mirror /work/.mirror]
+Usage: python3 bench/real_scans.py [--insalign build/src/insalign] [--mirror /work/.mirror]
                                    [--mounts 3] [--seeds 2] [--walk-mm 0,5] [--set KEY=VALUE ...]
 """
 import argparse
@@ -300,7 +300,7 @@ def record(label, code, result, wall, err, T_gt, rows, tally):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--insalign", default=os.path.join(HERE, "..", "build", "insalign"))
+    ap.add_argument("--insalign", default=os.path.join(HERE, "..", "build", "src", "insalign"))
     ap.add_argument("--mirror", default="/work/.mirror", help="folder holding owner+name/repo git mirrors")
     ap.add_argument("--work", default=os.path.join(HERE, "real_data"), help="ignored folder for the extracted scans")
     ap.add_argument("--mounts", type=int, default=3)
