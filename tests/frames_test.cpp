@@ -109,5 +109,29 @@ TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
   for (std::size_t i : {3, 4, 7}) EXPECT_FALSE(store.is_decoded(i)) << i;
 }
 
+// thinned(..., keep_decoded = false): what is not decoded yet is decoded for the call only (the
+// trajectory correction's frames), what is stays; the copies equal the stored path's.
+TEST(FrameStoreThinned, WithoutKeepingDecodesForTheCallOnly) {
+  Dataset data = straight_dataset();
+  auto load = data.frames.load;
+  data.frames.load = [load](std::size_t i) {
+    Sweep s = load(i);
+    for (std::size_t k = 0; k <= i % 5; ++k) s.p_lidar.emplace_back(float(i), float(k), 1.0f);
+    return s;
+  };
+  const FrameStore store(data, SweepFilter{});
+  store.load({4});
+  const std::vector<Sweep> transient = store.thinned({3, 4}, SweepFilter{}, /*keep_decoded=*/false);
+  EXPECT_FALSE(store.is_decoded(3));
+  EXPECT_TRUE(store.is_decoded(4));
+  EXPECT_EQ(store.frames_decoded(), 2u);  // 4 once, 3 for the call
+  const std::vector<Sweep> stored = store.thinned({3, 4}, SweepFilter{});
+  EXPECT_TRUE(store.is_decoded(3));
+  for (std::size_t f : {0u, 1u}) {
+    ASSERT_EQ(transient[f].size(), stored[f].size());
+    for (std::size_t k = 0; k < stored[f].size(); ++k) EXPECT_EQ(transient[f].p_lidar[k], stored[f].p_lidar[k]);
+  }
+}
+
 }  // namespace
 }  // namespace insalign

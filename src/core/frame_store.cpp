@@ -56,14 +56,18 @@ const Sweep& FrameStore::reduced(std::size_t index) const {
   if (slot.done.load(std::memory_order_acquire)) return *slot.sweep;
   const std::lock_guard<std::mutex> lock(slot.decoding);
   if (!slot.sweep) {  // a loader that throws leaves it empty: the next call tries again
-    Sweep sweep = thin_sweep(data_->frames.load(index), base_);
-    // No stage reads intensities: a fifth less memory per stored point (12 B position + 4 B time).
-    sweep.intensity = {};
-    slot.sweep = std::make_unique<const Sweep>(std::move(sweep));
+    slot.sweep = std::make_unique<const Sweep>(decode_reduced(index));
     slot.done.store(true, std::memory_order_release);
-    ++cache_->decoded;
   }
   return *slot.sweep;
+}
+
+Sweep FrameStore::decode_reduced(std::size_t index) const {
+  Sweep sweep = thin_sweep(data_->frames.load(index), base_);
+  // No stage reads intensities: a fifth less memory per stored point (12 B position + 4 B time).
+  sweep.intensity = {};
+  ++cache_->decoded;
+  return sweep;
 }
 
 void FrameStore::forget(const std::vector<std::size_t>& keep) const {
@@ -83,7 +87,8 @@ void FrameStore::load(const std::vector<std::size_t>& indices) const {
   tbb::parallel_for(std::size_t{0}, indices.size(), [&](std::size_t k) { reduced(indices[k]); });
 }
 
-std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const {
+std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter,
+                                       bool keep_decoded) const {
   // The stored copies keep one point per cube of the base edge already: the same edge again
   // would keep every point, so that pass is skipped (the range and the budget still apply).
   SweepFilter own = filter;
@@ -91,7 +96,9 @@ std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, 
   std::vector<Sweep> out(indices.size());
   tbb::parallel_for(std::size_t{0}, indices.size(),
                     [&](std::size_t k) {
-                      out[k] = thin_sweep(reduced(indices[k]), own);
+                      const std::size_t i = indices[k];
+                      out[k] = keep_decoded || is_decoded(i) ? thin_sweep(reduced(i), own)
+                                                             : thin_sweep(decode_reduced(i), own);
                       if (mask_) out[k] = kept_points(out[k], mask_->keep(indices[k], out[k]));
                     });
   return out;

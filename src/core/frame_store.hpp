@@ -95,7 +95,11 @@ class FrameStore {
   /// Decodes the given frames now, in parallel (the checks after stage 1 sample decoded frames).
   void load(const std::vector<std::size_t>& indices) const;
   /// `filter` applied to the stored copies of the given frames, in parallel, then the mask.
-  std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter) const;
+  /// keep_decoded false: a frame not decoded yet is decoded for this call only, not stored (a step
+  /// whose frames no later step reads: the trajectory correction's 240 beside stage 2's 120 raised
+  /// the peak by ~230 MB).
+  std::vector<Sweep> thinned(const std::vector<std::size_t>& indices, const SweepFilter& filter,
+                             bool keep_decoded = true) const;
 
   /// Drops every decoded sweep but those of `keep` (readers decode them again if they ask): a
   /// step whose frames no later step takes gives its memory back. Not safe while another thread
@@ -109,6 +113,7 @@ class FrameStore {
   bool is_decoded(std::size_t index) const { return cache_->slots[index].done.load(std::memory_order_acquire); }
 
  private:
+  Sweep decode_reduced(std::size_t index) const;  ///< the frame thinned by the base filter, not stored
   struct Slot {
     std::mutex decoding;
     std::unique_ptr<const Sweep> sweep;
