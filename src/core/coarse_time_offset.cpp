@@ -33,7 +33,7 @@ CoarseTimeOffset fit_time_offset(const std::vector<AnglePair>& pairs, const Pose
     out.explanation = fmt::format("time offset: not searched ({} registered pairs)", pairs.size());
     return out;
   }
-  out.median_at_zero_deg = median_difference_deg(pairs, poses, reference_s, config.min_pairs);
+  out.median_at_reference_deg = median_difference_deg(pairs, poses, reference_s, config.min_pairs);
   const int n = static_cast<int>(std::floor(config.range_s / config.step_s + 1e-9));
   double best = std::numeric_limits<double>::infinity();
   for (int i = -n; i <= n; ++i) {
@@ -45,15 +45,15 @@ CoarseTimeOffset fit_time_offset(const std::vector<AnglePair>& pairs, const Pose
   }
   out.median_at_best_deg = best;
   const bool far = std::abs(out.best_offset_s - reference_s) >= config.min_offset_s;
-  const bool clear = std::isfinite(best) && std::isfinite(out.median_at_zero_deg) &&
-                     out.median_at_zero_deg >= config.min_gain * best &&
-                     out.median_at_zero_deg - best >= config.min_gain_deg;
+  const bool clear = std::isfinite(best) && std::isfinite(out.median_at_reference_deg) &&
+                     out.median_at_reference_deg >= config.min_gain * best &&
+                     out.median_at_reference_deg - best >= config.min_gain_deg;
   out.applied = far && clear;
   out.offset_s = out.applied ? out.best_offset_s : reference_s;
   out.explanation = fmt::format(
       "time offset from the rotation angles of {} pairs: best {:+.3f} s (median |LiDAR - INS angle| {:.3f} deg, at "
       "{:+.3f} s {:.3f} deg): {}",
-      pairs.size(), out.best_offset_s, best, reference_s, out.median_at_zero_deg,
+      pairs.size(), out.best_offset_s, best, reference_s, out.median_at_reference_deg,
       out.applied ? "taken (stage 2 refines it)"
                   : (far ? fmt::format("not clear enough, {:+.3f} s kept (stage 2 searches +-its range)", reference_s)
                          : "left to stage 2"));

@@ -49,7 +49,8 @@ struct CoarseTimeOffset {
   bool applied = false;           ///< best_offset_s is far enough from the reference and the data clearly prefers it
   double offset_s = 0.0;          ///< t_ins = t_lidar + offset_s (the reference when not applied)
   double best_offset_s = 0.0;     ///< the search's minimum, applied or not
-  double median_at_zero_deg = 0.0, median_at_best_deg = 0.0;  ///< median |LiDAR - INS angle| (at the reference, at best)
+  /// Median |LiDAR - INS angle| at the reference offset and at the best one.
+  double median_at_reference_deg = 0.0, median_at_best_deg = 0.0;
   std::size_t pairs = 0;
   std::string explanation;
 };

@@ -55,7 +55,7 @@ json init_json(const GlobalInitResult& init) {
                              {"offset_s", init.time_offset.offset_s},
                              {"best_offset_s", init.time_offset.best_offset_s},
                              {"median_angle_difference_at_best_deg", init.time_offset.median_at_best_deg},
-                             {"median_angle_difference_at_zero_deg", init.time_offset.median_at_zero_deg},
+                             {"median_angle_difference_at_zero_deg", init.time_offset.median_at_reference_deg},
                              {"pairs", init.time_offset.pairs}}},
             {"seconds", {{"load", init.load_s}, {"coarse_yaw", init.coarse_s}, {"hand_eye", init.hand_eye_s},
                          {"scores", init.score_s}}},
