@@ -83,9 +83,8 @@ TEST(RefineFrames, DoNotFollowTheDecodedFrames) {
   EXPECT_EQ(refine_frames(store, config, 0.0, 0.0), fresh);
 }
 
-// forget() drops what a step no longer needs, keeps what it is told to, and a forgotten frame
-// decodes again, the same, when a later reader asks for it.
-TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
+// The straight drive with frames told apart by extra points (frame i has i % 5 + 1 more).
+Dataset distinct_frames_dataset() {
   Dataset data = straight_dataset();
   auto load = data.frames.load;
   data.frames.load = [load](std::size_t i) {
@@ -93,6 +92,13 @@ TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
     for (std::size_t k = 0; k <= i % 5; ++k) s.p_lidar.emplace_back(float(i), float(k), 1.0f);
     return s;
   };
+  return data;
+}
+
+// forget() drops what a step no longer needs, keeps what it is told to, and a forgotten frame
+// decodes again, the same, when a later reader asks for it.
+TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
+  const Dataset data = distinct_frames_dataset();
   const FrameStore store(data, SweepFilter{});
   store.load({3, 4, 7});
   const Sweep before = store.reduced(7);
@@ -112,13 +118,7 @@ TEST(FrameStoreForget, KeepsWhatItIsToldAndDecodesTheRestAgain) {
 // thinned(..., keep_decoded = false): what is not decoded yet is decoded for the call only (the
 // trajectory correction's frames), what is stays; the copies equal the stored path's.
 TEST(FrameStoreThinned, WithoutKeepingDecodesForTheCallOnly) {
-  Dataset data = straight_dataset();
-  auto load = data.frames.load;
-  data.frames.load = [load](std::size_t i) {
-    Sweep s = load(i);
-    for (std::size_t k = 0; k <= i % 5; ++k) s.p_lidar.emplace_back(float(i), float(k), 1.0f);
-    return s;
-  };
+  const Dataset data = distinct_frames_dataset();
   const FrameStore store(data, SweepFilter{});
   store.load({4});
   const std::vector<Sweep> transient = store.thinned({3, 4}, SweepFilter{}, /*keep_decoded=*/false);
