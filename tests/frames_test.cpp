@@ -83,6 +83,23 @@ TEST(RefineFrames, DoNotFollowTheDecodedFrames) {
   EXPECT_EQ(refine_frames(store, config, 0.0, 0.0), fresh);
 }
 
+// A fast drive gets more frames than max_frames, so that they lie at most max_spacing_m apart
+// (their near fields overlap): the straight drive is 100 m long, a frame every metre.
+TEST(RefineFrames, NoFartherApartThanMaxSpacing) {
+  const Dataset data = straight_dataset();
+  const FrameStore store(data, SweepFilter{});
+  RefineConfig config;
+  config.max_frames = 4;
+  config.max_spacing_m = 0.0;
+  EXPECT_EQ(refine_frames(store, config, 0.0, 0.0).size(), 4u);
+  config.max_spacing_m = 50.0;  // 4 frames are closer than that already
+  EXPECT_EQ(refine_frames(store, config, 0.0, 0.0).size(), 4u);
+  config.max_spacing_m = 10.0;
+  const std::vector<std::size_t> picked = refine_frames(store, config, 0.0, 0.0);
+  EXPECT_GE(picked.size(), 10u);
+  for (std::size_t k = 1; k < picked.size(); ++k) EXPECT_LE(picked[k] - picked[k - 1], 11u) << k;
+}
+
 // The straight drive with frames told apart by extra points (frame i has i % 5 + 1 more).
 Dataset distinct_frames_dataset() {
   Dataset data = straight_dataset();

@@ -787,8 +787,11 @@ std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConf
   drive.decoded.clear();
   const double total = drive.motion_m.back();
   const std::size_t by_motion = static_cast<std::size_t>(total / std::max(config.min_motion_m, 1e-6)) + 1;
+  const std::size_t by_spacing =
+      config.max_spacing_m > 0.0 ? static_cast<std::size_t>(total / config.max_spacing_m) + 1 : 0;
+  const std::size_t wanted = std::max(config.max_frames, by_spacing);
   std::vector<std::size_t> picked;
-  for (std::size_t k : spread_over_motion(drive, std::max<std::size_t>(1, std::min(config.max_frames, by_motion))))
+  for (std::size_t k : spread_over_motion(drive, std::max<std::size_t>(1, std::min(wanted, by_motion))))
     picked.push_back(drive.index[k]);
   return picked;
 }
