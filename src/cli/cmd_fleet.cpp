@@ -50,6 +50,8 @@ int run_fleet(FleetOptions& o) {
       return finish(m, results);
     }
     fmt::print("submitted Slurm job {} ({}/slurm/fleet.sbatch)\n", job, results.string());
+    if (m.rows.size() > o.jobs)  // only rows that wait for a slot pay slurmctld's latency
+      for (const std::string& hint : fleet::slurm_latency_hints()) fmt::print(stderr, "note: {}\n", hint);
     std::fflush(stdout);
     if (!o.wait) return kExitOk;
     return finish(m, results, fleet::wait_slurm(m, job, o.slurm));

@@ -146,6 +146,33 @@ std::string submit_slurm(const Manifest& m, const fs::path& results, const Slurm
   return id;
 }
 
+std::vector<std::string> slurm_latency_hints(const std::string& show_config) {
+  std::map<std::string, std::string> value;  // "Key   = value" lines
+  std::istringstream in(show_config);
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t eq = line.find(" = ");
+    if (eq == std::string::npos) continue;
+    std::string key = line.substr(0, eq);
+    key.erase(key.find_last_not_of(' ') + 1);
+    value[key] = line.substr(eq + 3);
+  }
+  std::vector<std::string> hints;
+  const auto epilog = value.find("Epilog");
+  if (epilog != value.end() && (epilog->second.empty() || epilog->second == "(null)"))
+    hints.push_back("this cluster has no Epilog, so a freed slot waits for slurmctld's next one-second pass before the "
+                    "next row starts; `Epilog=/bin/true` in slurm.conf starts it at once");
+  const auto sched = value.find("SchedulerParameters");
+  if (sched != value.end() && sched->second.find("batch_sched_delay=0") == std::string::npos)
+    hints.push_back("slurmctld may delay starting a batch task by up to batch_sched_delay (3 s by default); "
+                    "`SchedulerParameters=batch_sched_delay=0` in slurm.conf removes that wait");
+  return hints;
+}
+
+std::vector<std::string> slurm_latency_hints() {
+  const Captured config = run_captured({"scontrol", "show", "config"});
+  return config.exit_code == 0 ? slurm_latency_hints(config.output) : std::vector<std::string>{};
+}
+
 std::map<std::size_t, std::string> wait_slurm(const Manifest& m, const std::string& job_id, const SlurmConfig& c) {
   std::map<std::size_t, std::string> last;
   for (;;) {

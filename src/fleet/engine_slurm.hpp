@@ -41,6 +41,15 @@ std::string slurm_script(const Manifest& m, const std::filesystem::path& results
 /// Throws std::runtime_error with sbatch's message when the submission fails.
 std::string submit_slurm(const Manifest& m, const std::filesystem::path& results, const SlurmConfig& config);
 
+/// What in this cluster's configuration (`scontrol show config`'s text) makes every array task
+/// wait for slurmctld's periodic passes, one sentence each with the slurm.conf line that avoids it;
+/// empty when nothing does. Without an Epilog a freed slot waits for the next one-second pass
+/// (0.8-0.9 s per task measured, 0.15 s with one: bench/results/fleet.md).
+std::vector<std::string> slurm_latency_hints(const std::string& show_config);
+
+/// The same for the cluster `scontrol` reaches; empty when scontrol fails.
+std::vector<std::string> slurm_latency_hints();
+
 /// Follows the job until none of its tasks is pending or running, printing each row's state as
 /// it changes; returns the final Slurm state per row index (COMPLETED, FAILED, CANCELLED, ...).
 std::map<std::size_t, std::string> wait_slurm(const Manifest& m, const std::string& job_id, const SlurmConfig& config);

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#include "fleet/engine_slurm.hpp"
 #include "fleet/status.hpp"
 #include "fleet_test_util.hpp"
 #include "files/read_file.hpp"
@@ -133,6 +134,27 @@ TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
   EXPECT_EQ(j["failed"][0]["id"], "carD/2026-01-08-check");
   EXPECT_TRUE(contains(j["failed"][0]["error"].get<std::string>(), "line 20"));
   EXPECT_EQ(j["runs"].size(), rows.size());
+}
+
+// `scontrol show config` as Slurm 22.05 prints it, trimmed to the lines that matter here.
+TEST(FleetSlurm, LatencyHintsNameWhatMakesTasksWaitForSlurmctldsPasses) {
+  const std::string defaults =
+      "Configuration data as of 2026-12-06T22:45:23\nEpilog                  = (null)\n"
+      "EpilogMsgTime           = 2000 usec\nSchedulerParameters     = (null)\n";
+  const std::vector<std::string> hints = fleet::slurm_latency_hints(defaults);
+  ASSERT_EQ(hints.size(), 2u);
+  EXPECT_NE(hints[0].find("Epilog=/bin/true"), std::string::npos) << hints[0];
+  EXPECT_NE(hints[1].find("batch_sched_delay=0"), std::string::npos) << hints[1];
+  EXPECT_TRUE(fleet::slurm_latency_hints("Epilog                  = /etc/slurm/epilog.sh\n"
+                                         "SchedulerParameters     = bf_continue,batch_sched_delay=0\n")
+                  .empty());
+  EXPECT_TRUE(fleet::slurm_latency_hints("").empty());  // no scontrol output: nothing to say
+}
+
+TEST(FleetSlurm, TestClusterStartsAFreedSlotAtOnce) {
+  if (std::getenv("INSALIGN_TEST_SLURM") == nullptr)
+    GTEST_SKIP() << "INSALIGN_TEST_SLURM is not set (scripts/test.sh starts a single-node Slurm cluster and sets it)";
+  for (const std::string& hint : fleet::slurm_latency_hints()) ADD_FAILURE() << "scripts/fleet-services.sh: " << hint;
 }
 
 }  // namespace
