@@ -7,6 +7,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
@@ -377,16 +378,19 @@ void place_knots(const Problem& p, double offset_s, const TrajectoryCorrectionCo
 }
 
 // RMS over the frames of the correction minus its mean (what the correction moves the map by).
-double correction_rms(const Problem& p, const TrajectoryCorrection& s) {
+// Per world axis: RMS over the frames of the position correction minus its mean.
+Vec3 correction_rms_axes(const Problem& p, const TrajectoryCorrection& s) {
   std::vector<Vec3> c;
   for (const Sweep& sweep : p.sweeps) c.push_back(s.position_at(sweep.t_end_s + s.time_offset_s));
+  const double n = static_cast<double>(std::max<std::size_t>(1, c.size()));
   Vec3 mean = Vec3::Zero();
   for (const Vec3& v : c) mean += v;
-  mean /= static_cast<double>(std::max<std::size_t>(1, c.size()));
-  double sum = 0.0;
-  for (const Vec3& v : c) sum += (v - mean).squaredNorm();
-  return std::sqrt(sum / static_cast<double>(std::max<std::size_t>(1, c.size())));
+  mean /= n;
+  Vec3 sum = Vec3::Zero();
+  for (const Vec3& v : c) sum += (v - mean).cwiseAbs2();
+  return (sum / n).cwiseSqrt();
 }
+
 
 struct Solver {
   const Problem& p;
@@ -443,20 +447,47 @@ double thickness_rms(const Problem& p, const PoseStream& poses, const Trajectory
   return plane_thickness(p_world, plane_thickness_config(refine)).rms_m;
 }
 
-void decide(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s) {
+
+}  // namespace
+
+Vec3 prior_rms_axes_m(const TrajectoryCorrection& s, const TrajectoryCorrectionConfig& config,
+                    const std::vector<InsQuality>& quality) {
+  const double h = s.t_s.size() > 1 ? s.t_s[1] - s.t_s[0] : 1.0;
+  const double q2 = config.drift_m_per_sqrt_s * config.drift_m_per_sqrt_s;
+  Vec3 v = Vec3::Zero();
+  for (std::size_t k = 0; k + 1 < s.t_s.size(); ++k)
+    for (int axis = 0; axis < 3; ++axis) {
+      const bool vertical = axis == 2;
+      const double stated = std::abs(stated_variance(quality, s.t_s[k + 1], vertical) -
+                                     stated_variance(quality, s.t_s[k], vertical));
+      v[axis] += std::max(q2 * h, stated);
+    }
+  return (v / 6.0).cwiseSqrt();
+}
+
+void decide_application(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s) {
   const double gain = s.cost_ins_rms_m > 0.0 ? 1.0 - s.cost_corrected_rms_m / s.cost_ins_rms_m : 0.0;
   const bool evidence = s.correction_rms_m >= config.apply_min_rms_m && gain >= config.apply_min_gain;
-  s.applied = config.mode == TrajectoryCorrectionMode::kAlways || evidence;
+  int worst = 0;  // the axis furthest beyond its prior
+  const Vec3 ratio = s.correction_rms_axes_m.cwiseQuotient(s.prior_rms_axes_m.cwiseMax(1e-9));
+  ratio.maxCoeff(&worst);
+  const bool plausible = ratio[worst] <= config.max_prior_ratio;
+  s.applied = config.mode == TrajectoryCorrectionMode::kAlways || (evidence && plausible);
+  const std::string implausible = fmt::format(
+      "its {} part ({:.0f} mm RMS) is {:.0f}x what the INS's drift allows ({:.0f} mm): the LiDAR cannot correct the "
+      "trajectory on this drive",
+      std::array{"x", "y", "vertical"}[static_cast<std::size_t>(worst)], 1e3 * s.correction_rms_axes_m[worst],
+      ratio[worst], 1e3 * s.prior_rms_axes_m[worst]);
+  std::string why;
+  if (s.applied) why = evidence && plausible ? "applied: the INS poses drift" : "applied (mode always)";
+  else if (!evidence) why = fmt::format("not applied: the INS poses are consistent (auto applies from {:.0f} mm and {:.0f}%)",
+                                        1e3 * config.apply_min_rms_m, 100.0 * config.apply_min_gain);
+  else why = "not applied: " + implausible;
   s.decision = fmt::format(
       "the INS trajectory correction moves the frames by {:.1f} mm RMS and makes the map's planes {:.1f}% thinner "
       "({:.1f} -> {:.1f} mm); {}",
-      1e3 * s.correction_rms_m, 100.0 * gain, 1e3 * s.cost_ins_rms_m, 1e3 * s.cost_corrected_rms_m,
-      s.applied ? (evidence ? "applied: the INS poses drift" : "applied (mode always)")
-                : fmt::format("not applied: the INS poses are consistent (auto applies from {:.0f} mm and {:.0f}%)",
-                              1e3 * config.apply_min_rms_m, 100.0 * config.apply_min_gain));
+      1e3 * s.correction_rms_m, 100.0 * gain, 1e3 * s.cost_ins_rms_m, 1e3 * s.cost_corrected_rms_m, why);
 }
-
-}  // namespace
 
 double stated_drift_rms_m(const FrameStore& store) {
   double best = std::numeric_limits<double>::infinity(), sum_sq = 0.0;
@@ -588,10 +619,12 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
     s.outcome.determined[static_cast<std::size_t>(i)] = true;
   }
   s.time_offset_stddev_s = refine.estimate_time_offset ? std::sqrt(std::max(0.0, cov(kOffset, kOffset))) : 0.0;
-  s.correction_rms_m = correction_rms(p, s);
+  s.correction_rms_axes_m = correction_rms_axes(p, s);
+  s.correction_rms_m = s.correction_rms_axes_m.norm();
+  s.prior_rms_axes_m = prior_rms_axes_m(s, config, store.data().ins_quality);
   s.cost_corrected_rms_m = thickness_rms(p, corrected_poses(store.poses(), s), s, refine);
   s.cost_ins_rms_m = thickness_rms(p, store.poses(), s, refine);
-  decide(config, s);
+  decide_application(config, s);
   s.outcome.wall_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
   return s;
 }

@@ -89,8 +89,13 @@ struct TrajectoryCorrectionConfig {
   /// Measured: an RTK-fixed drive (gate seed 21) 15 mm and 5-7% thinner, where applying it cost
   /// x 1.1 -> 4.4 mm; drifting drives (5 mm/sqrt(s), recorded trajectory) 31-37 mm and ~27%.
   double apply_min_rms_m = 0.025;
-  /// ... and it lowers the plane-thickness cost by at least this fraction.
+  /// ... and it lowers the plane-thickness cost by at least this fraction ...
   double apply_min_gain = 0.15;
+  /// ... and on no axis is it more than this many times what its own random-walk prior expects
+  /// (prior_rms_axes_m). A correction far beyond the INS's drift is the LiDAR fitting something
+  /// else: a vertical ramp of 1.7 m over a 3-minute city drive (prior: 27 mm RMS) left a
+  /// left-mounted HDL-32's pitch 0.157 deg off where the uncorrected run was 0.001 off.
+  double max_prior_ratio = 4.0;
 };
 
 template <class V>
@@ -117,6 +122,8 @@ void visit_config(V& v, TrajectoryCorrectionConfig& c) {
   v("refit_iterations", c.refit_iterations, "iterations that re-find the local planes before freezing them");
   v("apply_min_rms_m", c.apply_min_rms_m, "auto: apply when the correction's time-varying part has at least this RMS, m");
   v("apply_min_gain", c.apply_min_gain, "auto: ...and lowers the plane-thickness cost by at least this fraction");
+  v("max_prior_ratio", c.max_prior_ratio,
+    "auto: ...and is on no axis more than this many times the RMS its random-walk prior expects");
 }
 
 struct TrajectoryCorrection {
@@ -134,12 +141,26 @@ struct TrajectoryCorrection {
   double cost_ins_rms_m = 0.0;          ///< plane thickness RMS with the INS poses, at the joint extrinsic
   double cost_corrected_rms_m = 0.0;    ///< ... and with the corrected poses
   double correction_rms_m = 0.0;        ///< RMS over the frames of the corrections minus their mean
+  Vec3 correction_rms_axes_m = Vec3::Zero();  ///< the same per world axis
+  /// What the random-walk prior expects of that RMS per axis: sqrt(V / 6), V the prior's
+  /// variance summed over the drive (a walk's variance about its own mean averages V/6).
+  Vec3 prior_rms_axes_m = Vec3::Zero();
   std::size_t frames_used = 0, points_used = 0;
   int iterations = 0;
 
   Vec3 position_at(double t_s) const;   ///< interpolated (constant beyond the knots)
   double heading_at(double t_s) const;
 };
+
+/// What the random-walk prior expects of the correction's RMS about its mean, per world axis (m):
+/// sqrt(V / 6), V the prior's variance (add_priors: the larger of drift_m_per_sqrt_s^2 per second
+/// and the growth of the INS's stated variance) summed over the knots of s.
+Vec3 prior_rms_axes_m(const TrajectoryCorrection& s, const TrajectoryCorrectionConfig& config,
+                      const std::vector<InsQuality>& quality);
+
+/// Sets s.applied and s.decision from the mode, the drive's evidence (apply_min_rms_m,
+/// apply_min_gain) and the correction's plausibility against its prior (max_prior_ratio).
+void decide_application(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s);
 
 /// How far the INS's stated horizontal stddev grows above its best value on the drive: RMS over
 /// the samples outside the store's left-out spans of sqrt(stated^2 - best^2), m; 0 when the INS
