@@ -377,8 +377,7 @@ void place_knots(const Problem& p, double offset_s, const TrajectoryCorrectionCo
   if (config.estimate_heading) s.heading_rad.assign(s.t_s.size(), 0.0);
 }
 
-// RMS over the frames of the correction minus its mean (what the correction moves the map by).
-// Per world axis: RMS over the frames of the position correction minus its mean.
+// Per world axis: RMS over the frames of the correction minus its mean (what it moves the map by).
 Vec3 correction_rms_axes(const Problem& p, const TrajectoryCorrection& s) {
   std::vector<Vec3> c;
   for (const Sweep& sweep : p.sweeps) c.push_back(s.position_at(sweep.t_end_s + s.time_offset_s));
@@ -390,7 +389,6 @@ Vec3 correction_rms_axes(const Problem& p, const TrajectoryCorrection& s) {
   for (const Vec3& v : c) sum += (v - mean).cwiseAbs2();
   return (sum / n).cwiseSqrt();
 }
-
 
 struct Solver {
   const Problem& p;
@@ -446,7 +444,6 @@ double thickness_rms(const Problem& p, const PoseStream& poses, const Trajectory
   place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
   return plane_thickness(p_world, plane_thickness_config(refine)).rms_m;
 }
-
 
 }  // namespace
 
