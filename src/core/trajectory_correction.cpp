@@ -155,6 +155,46 @@ struct SparseRow {
   }
 };
 
+// Without heading knots a point's row is [e (the 7 extrinsic and offset entries), (1 - w) n at
+// knot k, w n at knot k + 1], n its plane's normal. The outer products of the points of one plane
+// between the same two knots therefore need only sum(e e^T), sum((1 - w) e), sum(w e) and three
+// sums of the weights: about a quarter of the arithmetic of the rows' full products, which
+// dominated the correction's time. Added to H once per such run of points.
+struct KnotPairSums {
+  int k = -1;  // the run's first knot; -1: empty
+  Vec3 n = Vec3::Zero();
+  Eigen::Matrix<double, kExtrinsic, kExtrinsic> ee = decltype(ee)::Zero();
+  Eigen::Matrix<double, kExtrinsic, 1> e0 = decltype(e0)::Zero(), e1 = decltype(e1)::Zero();
+  double s00 = 0.0, s01 = 0.0, s11 = 0.0;
+
+  void add(const Eigen::Matrix<double, kExtrinsic, 1>& e, const Vec3& normal, const Hat& h, double w, const Layout& layout,
+           MatX& H) {
+    if (h.i != k || normal != n) {
+      flush(layout, H);
+      k = h.i;
+      n = normal;
+    }
+    ee.selfadjointView<Eigen::Upper>().rankUpdate(e, w);
+    e0 += (w * (1.0 - h.w)) * e;
+    e1 += (w * h.w) * e;
+    s00 += w * (1.0 - h.w) * (1.0 - h.w);
+    s01 += w * (1.0 - h.w) * h.w;
+    s11 += w * h.w * h.w;
+  }
+  void flush(const Layout& layout, MatX& H) {
+    if (k < 0) return;
+    H.topLeftCorner<kExtrinsic, kExtrinsic>().triangularView<Eigen::Upper>() += ee;
+    const int p0 = layout.pos(k, 0), p1 = layout.pos(k + 1, 0);
+    H.block<kExtrinsic, 3>(0, p0) += e0 * n.transpose();
+    H.block<kExtrinsic, 3>(0, p1) += e1 * n.transpose();
+    const Mat3 nn = n * n.transpose();
+    H.block<3, 3>(p0, p0).triangularView<Eigen::Upper>() += s00 * nn;
+    H.block<3, 3>(p0, p1) += s01 * nn;
+    H.block<3, 3>(p1, p1).triangularView<Eigen::Upper>() += s11 * nn;
+    *this = KnotPairSums{};
+  }
+};
+
 // Scratch for one plane's summed Jacobian (the plane offset is eliminated per plane).
 struct PlaneSum {
   VecX sum;
@@ -197,6 +237,7 @@ Normal data_normal_equations(const Problem& p, const PoseStream& poses, const Tr
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, lp.planes.size(), 64), [&](const auto& r) {
     Normal& ne = acc.local();
     PlaneSum& plane_sum = sums.local();
+    KnotPairSums pair;
     for (std::size_t k = r.begin(); k < r.end(); ++k) {
       const LocalPlane& plane = lp.planes[k];
       double sum_w = 0.0;
@@ -230,13 +271,14 @@ Normal data_normal_equations(const Problem& p, const PoseStream& poses, const Tr
         }
         const double ar = std::abs(res);
         const double w = ar <= huber_m ? 1.0 : huber_m / ar;
-        for (int x = 0; x < row.n; ++x) {
-          const double wx = w * row.value[x];
-          ne.g[row.index[x]] += wx * res;
-          for (int y = 0; y < row.n; ++y) {
-            const int ix = row.index[x], iy = row.index[y];
-            if (ix <= iy) ne.H(ix, iy) += wx * row.value[y];
-          }
+        for (int x = 0; x < row.n; ++x) ne.g[row.index[x]] += w * row.value[x] * res;
+        if (layout.heading) {
+          for (int x = 0; x < row.n; ++x)
+            for (int y = 0; y < row.n; ++y)
+              if (row.index[x] <= row.index[y]) ne.H(row.index[x], row.index[y]) += w * row.value[x] * row.value[y];
+        } else {
+          pair.add(Eigen::Map<const Eigen::Matrix<double, kExtrinsic, 1>>(row.value.data()), plane.normal, h, w, layout,
+                   ne.H);
         }
         plane_sum.add(row, w);
         sum_w += w;
@@ -246,6 +288,7 @@ Normal data_normal_equations(const Problem& p, const PoseStream& poses, const Tr
       }
       plane_sum.eliminate(ne.H, sum_w);
     }
+    pair.flush(layout, ne.H);
   });
   Normal total(size);
   acc.combine_each([&](const Normal& ne) {
