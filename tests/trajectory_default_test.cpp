@@ -115,7 +115,8 @@ TEST(TrajectoryDefault, RtkFixedDriveGivesOffsAnswer) {
 
 // A one-way city loop with a drifting INS (bench/check_accuracy's drive 32: a Pandar64 at the left
 // mirror): corrected jointly with the trajectory, tx came out 66 mm off at a stated 8 mm; the
-// default keeps stage 2's lever arm and time offset and corrects the rotation only.
+// default keeps stage 2's lever arm and time offset and corrects the rotation only, and their
+// stddev carries the drift the correction measured.
 TEST(TrajectoryDefault, KeepsStageTwosLeverArmOnAOneWayLoop) {
   sim::SimConfig sc;
   sc.seed = 1032;
@@ -139,7 +140,11 @@ TEST(TrajectoryDefault, KeepsStageTwosLeverArmOnAOneWayLoop) {
   for (int i : {0, 1}) {
     EXPECT_LT(std::abs(err[i]), 0.02) << "axis " << i;  // jointly: 61.5 mm
     EXPECT_LT(std::abs(err[i]), 3.0 * r.stddev[i]) << "axis " << i << ", stated " << r.stddev[i];
+    // The drift the correction measured is in the held lever arm's stddev.
+    EXPECT_GT(r.ins_drift_stddev[i], 0.001) << "axis " << i;
+    EXPECT_GE(r.stddev[i], r.ins_drift_stddev[i]) << "axis " << i;
   }
+  EXPECT_EQ(r.ins_drift_stddev.segment<3>(3), Vec3::Zero()) << "the rotation is the correction's own estimate";
   EXPECT_LT(extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true).angle_deg, 0.05);
 }
 

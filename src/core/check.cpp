@@ -12,13 +12,6 @@ namespace {
 
 bool is_rotation(int dof) { return dof >= 3 && dof <= 5; }
 
-// Numbers as a person reads them: mm for translations, ms for the time offset.
-std::string amount(int dof, double v) {
-  if (dof <= 2) return fmt::format("{:.1f} mm", 1e3 * v);
-  if (dof == 6) return fmt::format("{:.2f} ms", 1e3 * v);
-  return fmt::format("{:.3f} deg", v);
-}
-
 double rotation_angle_deg(const Mat3& R) {
   return Eigen::AngleAxisd(R).angle() * kDegPerRad;
 }
@@ -46,6 +39,12 @@ std::string gross_warning(const Iso3& T_installed, const Iso3& T_est, bool tz_kn
 
 }  // namespace
 
+std::string dof_amount(int dof, double v) {
+  if (dof <= 2) return fmt::format("{:.1f} mm", 1e3 * v);
+  if (dof == 6) return fmt::format("{:.2f} ms", 1e3 * v);
+  return fmt::format("{:.3f} deg", v);
+}
+
 Vec7 extrinsic_correction(const Iso3& T_installed, double offset_installed_s, const Iso3& T_est, double offset_est_s) {
   Vec7 c;
   c.head<3>() = T_est.translation() - T_installed.translation();
@@ -69,17 +68,17 @@ DofCheck judge_dof(int dof, double correction, double stddev, const CheckConfig&
   const bool finite = std::isfinite(stddev) && std::isfinite(correction);
   if (finite && c > d.tolerance && c > config.drift_sigmas * stddev) {
     d.verdict = DofVerdictKind::kDrifted;
-    d.why = fmt::format("the correction {} is beyond the tolerance {} and {:.1f} stddev ({})", amount(dof, correction),
-                        amount(dof, d.tolerance), c / std::max(stddev, 1e-300), amount(dof, stddev));
+    d.why = fmt::format("the correction {} is beyond the tolerance {} and {:.1f} stddev ({})", dof_amount(dof, correction),
+                        dof_amount(dof, d.tolerance), c / std::max(stddev, 1e-300), dof_amount(dof, stddev));
   } else if (finite && c + config.ok_sigmas * stddev <= d.tolerance) {
     d.verdict = DofVerdictKind::kOk;
-    d.why = fmt::format("the correction {} +- {:g} stddev ({}) lies within the tolerance {}", amount(dof, correction),
-                        config.ok_sigmas, amount(dof, stddev), amount(dof, d.tolerance));
+    d.why = fmt::format("the correction {} +- {:g} stddev ({}) lies within the tolerance {}", dof_amount(dof, correction),
+                        config.ok_sigmas, dof_amount(dof, stddev), dof_amount(dof, d.tolerance));
   } else {
     d.verdict = DofVerdictKind::kNotObservable;
     d.why = finite ? fmt::format("the correction {} with stddev {} neither clears the tolerance {} by {:g} stddev nor "
                                  "exceeds it by {:g} stddev: {}",
-                                 amount(dof, correction), amount(dof, stddev), amount(dof, d.tolerance),
+                                 dof_amount(dof, correction), dof_amount(dof, stddev), dof_amount(dof, d.tolerance),
                                  config.ok_sigmas, config.drift_sigmas, observing_drive(dof))
                    : fmt::format("this drive does not determine it: {}", observing_drive(dof));
   }
@@ -140,7 +139,7 @@ std::string verdict_message(const std::array<DofCheck, 7>& dofs, CheckVerdict ve
     bool first = true;
     for (int i = 0; i < 7; ++i) {
       if (dofs[i].verdict != DofVerdictKind::kDrifted) continue;
-      out += fmt::format("{}{} {}", first ? "" : ", ", kCheckDofNames[i], amount(i, dofs[i].correction));
+      out += fmt::format("{}{} {}", first ? "" : ", ", kCheckDofNames[i], dof_amount(i, dofs[i].correction));
       first = false;
     }
     return out + "); the corrected extrinsic is in corrected/";

@@ -103,6 +103,8 @@ DofCheck judge_dof(int dof, double correction, double stddev, const CheckConfig&
 
 /// What drive would decide DOF `dof` when this one could not ("yaw needs turns both ways").
 std::string_view observing_drive(int dof);
+/// A DOF's value as a person reads it: mm for translations, ms for the time offset, else deg.
+std::string dof_amount(int dof, double v);
 
 /// Which DOFs config.unchecked_dofs names. Throws std::invalid_argument on an unknown name.
 std::array<bool, 7> unchecked_dofs(const CheckConfig& config);

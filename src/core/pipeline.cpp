@@ -63,6 +63,17 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
   if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
   for (int i : {0, 1, 3, 4, 5})
     if (!refine.held[static_cast<std::size_t>(i)]) r.stddev[i] = r.trajectory.outcome.stddev[i];
+  // What the correction kept from stage 2 still carries the drift it measured: a 20 mm lever-arm
+  // change read as 5-10 mm at a stated 4-7 mm on drifting drives (bench/results/check.md).
+  // Added to the stddev, not a floor: the drift common to the whole drive is the part the
+  // repeatability segments' spread cannot hold.
+  if (r.refine && r.trajectory.t_s.size() >= 2) {
+    const auto drift = random_walk_stddev(*r.refine, r.trajectory.correction_rms_axes_m,
+                                          r.trajectory.t_s.back() - r.trajectory.t_s.front());
+    for (int i = 0; i < 6; ++i)
+      if (refine.held[static_cast<std::size_t>(i)]) r.ins_drift_stddev[i] = drift[i];
+    if (!refine.estimate_time_offset) r.ins_drift_stddev[6] = drift[6];
+  }
   r.warnings.push_back(r.trajectory.decision);
 }
 
@@ -254,11 +265,15 @@ void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r) {
   if (std::isfinite(r.stddev[5])) r.stddev[5] = std::hypot(r.stddev[5], r.ins_heading_sigma_rad);
 }
 
-// A floor, not a sum: part of that error (its faster wander) the segments' spread already holds.
+// The assumed slow error a floor, not a sum: part of it (its faster wander) the segments' spread
+// already holds. The measured drift is added (run_trajectory_correction says why).
 void add_ins_position_error(CalibrationResult& r) {
   if (!r.refine) return;
   for (int i : {0, 1, 3, 4, 5})
-    if (std::isfinite(r.stddev[i])) r.stddev[i] = std::max(r.stddev[i], r.refine->ins_position_stddev[i]);
+    if (std::isfinite(r.stddev[i]))
+      r.stddev[i] = std::hypot(std::max(r.stddev[i], r.refine->ins_position_stddev[i]), r.ins_drift_stddev[i]);
+  if (std::isfinite(r.time_offset_stddev_s))
+    r.time_offset_stddev_s = std::hypot(r.time_offset_stddev_s, r.ins_drift_stddev[6]);
 }
 
 TzSource final_tz_source(const CalibrationResult& r) {

@@ -106,6 +106,11 @@ struct CalibrationResult {
   /// weak, an INS that looks wrong. Also in `warnings` (after them).
   std::vector<std::string> advice;
   double ins_heading_sigma_rad = 0.0;  ///< the part of stddev[5] that is the INS's heading error
+  /// The stddev (x y z m, roll pitch yaw rad, time offset s) that the INS drift the applied
+  /// trajectory correction measured leaves in the DOFs it kept from stage 2 (estimated on the
+  /// reported, drifting poses; trajectory.hold_lever_arm): a random walk of the correction's RMS
+  /// per axis through stage 2's sensitivity. Zero elsewhere. Added to stddev in quadrature.
+  Eigen::Matrix<double, 7, 1> ins_drift_stddev = Eigen::Matrix<double, 7, 1>::Zero();
   std::vector<std::string> warnings;
   std::size_t frames_decoded = 0;       ///< sweeps decoded by the whole run (each at most once)
   double wall_time_s = 0.0;
@@ -136,7 +141,8 @@ FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& l
 /// after anything that compares LiDARs of one INS (their heading error is common).
 void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);
 /// Each stddev at least stage 2's share of the INS's slow position error (RefineResult::
-/// ins_position_stddev), which the repeatability segments cannot show.
+/// ins_position_stddev), then with the drift the trajectory correction measured added
+/// (ins_drift_stddev): errors common to the drive, which the repeatability segments cannot show.
 void add_ins_position_error(CalibrationResult& r);
 /// The last step of every run (one LiDAR or each of a rig's): `determined`, `stddev`, `tz_source`
 /// and `advice` from the stages' evidence (decide_dof_status), and the INS's own advice.

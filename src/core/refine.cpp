@@ -420,30 +420,41 @@ std::vector<Eigen::MatrixX3d> frame_shift_sensitivity(const Problem& p, const St
   return out;
 }
 
-// Covariance of the active parameters from an INS position error that is exponentially correlated
-// in time (sigmas per world axis, config.ins_slow_error_*), through the linearised estimate
-// dx = -H^-1 sum_f G[f] e_f.
-Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eigen::MatrixX3d>& G,
-                                        const Eigen::MatrixXd& H_active, const std::vector<int>& params,
-                                        const RefineConfig& config) {
+// S[f] = H^-1 G[f], 7N x 3 (rows of parameters not estimated zero): what frame f's INS position
+// error moves the estimate by, to first order (dx = -sum_f S[f] e_f).
+std::vector<Eigen::MatrixX3d> ins_shift(const std::vector<Eigen::MatrixX3d>& G, const Eigen::MatrixXd& H_active,
+                                        const std::vector<int>& params) {
   const int n_dof = static_cast<int>(params.size());
-  std::vector<Eigen::MatrixX3d> G_active(G.size(), Eigen::MatrixX3d(n_dof, 3));
-  for (std::size_t f = 0; f < G.size(); ++f)
-    for (int a = 0; a < n_dof; ++a) G_active[f].row(a) = G[f].row(params[a]);
+  const Eigen::MatrixXd Hinv = H_active.ldlt().solve(Eigen::MatrixXd::Identity(n_dof, n_dof));
+  std::vector<Eigen::MatrixX3d> S(G.size());
+  Eigen::MatrixX3d G_active(n_dof, 3);
+  for (std::size_t f = 0; f < G.size(); ++f) {
+    for (int a = 0; a < n_dof; ++a) G_active.row(a) = G[f].row(params[a]);
+    const Eigen::MatrixX3d s_active = Hinv * G_active;
+    S[f] = Eigen::MatrixX3d::Zero(G[f].rows(), 3);
+    for (int a = 0; a < n_dof; ++a) S[f].row(params[a]) = s_active.row(a);
+  }
+  return S;
+}
+
+// Covariance of the parameters from an INS position error that is exponentially correlated in
+// time (sigmas per world axis, config.ins_slow_error_*).
+Eigen::MatrixXd ins_position_covariance(const Problem& p, const std::vector<Eigen::MatrixX3d>& S,
+                                        const RefineConfig& config) {
   const Vec3 var(config.ins_slow_error_horizontal_m * config.ins_slow_error_horizontal_m,
                  config.ins_slow_error_horizontal_m * config.ins_slow_error_horizontal_m,
                  config.ins_slow_error_vertical_m * config.ins_slow_error_vertical_m);
-  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(n_dof, n_dof);
+  const Eigen::Index n = S.empty() ? 0 : S.front().rows();
+  Eigen::MatrixXd cov = Eigen::MatrixXd::Zero(n, n);
   const double tau = std::max(config.ins_slow_error_correlation_s, 1e-6);
-  for (std::size_t f = 0; f < G.size(); ++f) {
-    const Eigen::MatrixXd GfC = G_active[f] * var.asDiagonal();
-    for (std::size_t h = 0; h < G.size(); ++h) {
+  for (std::size_t f = 0; f < S.size(); ++f) {
+    const Eigen::MatrixX3d SfV = S[f] * var.asDiagonal();
+    for (std::size_t h = 0; h < S.size(); ++h) {
       const double rho = std::exp(-std::abs(p.frames[f].t_end_s - p.frames[h].t_end_s) / tau);
-      B.noalias() += rho * GfC * G_active[h].transpose();
+      cov.noalias() += rho * SfV * S[h].transpose();
     }
   }
-  const Eigen::MatrixXd Hinv = H_active.ldlt().solve(Eigen::MatrixXd::Identity(n_dof, n_dof));
-  return Hinv * B * Hinv;
+  return cov;
 }
 
 std::vector<int> active_dofs(const RefineConfig& c, bool time_offset, bool tz) {
@@ -477,6 +488,8 @@ struct Search {
   std::size_t planes = 0, shared_planes = 0;
   Eigen::MatrixXd information, covariance;  // 7N x 7N (continuous method)
   Eigen::MatrixXd ins_covariance;           // 7N x 7N: the INS's correlated position error's share
+  std::vector<Eigen::MatrixX3d> ins_shift;  // per frame, 7N x 3 (see ins_shift())
+  std::vector<double> frame_t_s;
   double sigma_m = 0.0;
   std::vector<double> residuals, rms_first_m, rms_last_m;  // per LiDAR
 };
@@ -663,10 +676,10 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
   for (int a = 0; a < n_dof; ++a)
     for (int b = 0; b < n_dof; ++b) out.covariance(params[a], params[b]) = cov(a, b);
   if (!planes.empty() && H_active.size() > 0) {
-    const Eigen::MatrixXd ins = ins_position_covariance(p, frame_shift_sensitivity(p, s, config, planes), H_active, params, config);
-    out.ins_covariance = Eigen::MatrixXd::Zero(n_all, n_all);
-    for (int a = 0; a < n_dof; ++a)
-      for (int b = 0; b < n_dof; ++b) out.ins_covariance(params[a], params[b]) = ins(a, b);
+    out.ins_shift = ins_shift(frame_shift_sensitivity(p, s, config, planes), H_active, params);
+    out.ins_covariance = ins_position_covariance(p, out.ins_shift, config);
+    out.frame_t_s.clear();
+    for (const auto& f : p.frames) out.frame_t_s.push_back(f.t_end_s);
   }
   out.sigma_m = std::sqrt(sigma2);
   out.measure = "plane thickness RMS (m, " + fmt_m(config.plane_voxel_m) + " m planes)";
@@ -690,6 +703,10 @@ void set_stddevs(const Search& search, const std::vector<bool>& offset_free, con
           results[l].ins_position_stddev(d) = std::sqrt(std::max(0.0, search.ins_covariance(i, i)));
       }
     }
+    results[l].ins_shift_t_s = search.frame_t_s;
+    results[l].ins_shift.clear();
+    for (const Eigen::MatrixX3d& S : search.ins_shift)
+      results[l].ins_shift.push_back(S.middleRows<kRefineParams>(kRefineParams * static_cast<Eigen::Index>(l)));
   }
 }
 
@@ -848,6 +865,29 @@ JointRefineResult refine_joint(const std::vector<RefineLidar>& lidars, const Ref
     result.lidars[l].occupied_voxels_after = after[l];
   }
   return finish();
+}
+
+Vec7 random_walk_stddev(const RefineResult& r, const Vec3& rms_about_mean_m, double span_s) {
+  const std::size_t n = r.ins_shift.size();
+  if (n < 2 || !(span_s > 0.0)) return Vec7::Zero();
+  // sum_f S_f (e_f - mean e) = sum_f (S_f - mean S) e_f, and a walk is the integral of its steps:
+  // each step between sorted frame times moves every later frame alike, so its variance
+  // (q dt per axis) enters through the suffix sum of S - mean S.
+  std::vector<std::size_t> order(n);
+  for (std::size_t f = 0; f < n; ++f) order[f] = f;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return r.ins_shift_t_s[a] < r.ins_shift_t_s[b]; });
+  Eigen::Matrix<double, 7, 3> mean = Eigen::Matrix<double, 7, 3>::Zero();
+  for (const auto& S : r.ins_shift) mean += S;
+  mean /= static_cast<double>(n);
+  const Vec3 q = 6.0 * rms_about_mean_m.cwiseAbs2() / span_s;
+  Vec7 var = Vec7::Zero();
+  Eigen::Matrix<double, 7, 3> suffix = Eigen::Matrix<double, 7, 3>::Zero();
+  for (std::size_t k = n; k-- > 1;) {
+    suffix += r.ins_shift[order[k]] - mean;
+    const double dt = r.ins_shift_t_s[order[k]] - r.ins_shift_t_s[order[k - 1]];
+    var += dt * (suffix.cwiseAbs2() * q);
+  }
+  return var.cwiseSqrt();
 }
 
 RefineResult refine_extrinsic(const FrameStore& store, const std::vector<std::size_t>& frames,

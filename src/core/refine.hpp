@@ -202,8 +202,20 @@ struct RefineResult {
   /// estimate (0 where not estimated): what the INS gets wrong slowly is common to long stretches
   /// of the drive, so the repeatability segments cannot show it.
   Vec6 ins_position_stddev = Vec6::Zero();
+  /// What an INS position error e_f (world frame) of the problem's frame f moves this estimate
+  /// by, to first order: ins_shift[f] * e_f, rows x y z roll pitch yaw (rad) and time offset (s),
+  /// zero for DOFs not estimated; frames at (LiDAR clock) times ins_shift_t_s[f]. Any error model's share
+  /// follows from it (ins_position_stddev is one; random_walk_stddev another).
+  std::vector<double> ins_shift_t_s;
+  std::vector<Eigen::Matrix<double, 7, 3>> ins_shift;
   std::vector<RefineRound> rounds;
 };
+
+/// The stddev (x y z m, roll pitch yaw rad, time offset s) that an INS position random walk
+/// leaves in r's estimate: per world axis, a walk whose RMS about its own mean over `span_s` is
+/// rms_about_mean_m (a walk's variance about its mean averages q span / 6). Only what differs
+/// between frames counts: a shift common to all moves nothing. All zero without ins_shift.
+Eigen::Matrix<double, 7, 1> random_walk_stddev(const RefineResult& r, const Vec3& rms_about_mean_m, double span_s);
 
 /// The local-plane parameters of kContinuous as the crispness measure's config.
 PlaneThicknessConfig plane_thickness_config(const RefineConfig& config);

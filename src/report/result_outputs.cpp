@@ -252,6 +252,8 @@ json result_to_json(const CalibrationResult& r, const RunInfo& run) {
   out["stddev"] = dof_map(r.stddev);
   out["stddev"]["time_offset_s"] = number(r.time_offset_stddev_s);
   out["stddev_yaw_includes_ins_heading_deg"] = r.ins_heading_sigma_rad * kDegPerRad;  // ins_heading_sigma_deg
+  out["stddev_includes_ins_drift"] = dof_map(r.ins_drift_stddev.head<6>());  // the drift the correction measured
+  out["stddev_includes_ins_drift"]["time_offset_s"] = r.ins_drift_stddev[6];
   out["determined"] = determined_map(r.determined);
   out["tz_source"] = std::string(enum_name(r.tz_source));  // stage 3's method is stages.z.method
   out["advice"] = r.advice;
