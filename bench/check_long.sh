@@ -24,7 +24,7 @@ measure() {  # label command...
   local label=$1
   shift
   /usr/bin/time -f "%e %U %S %M" -o "$work/$label.time" "$@" >"$work/$label.log" 2>&1 || true
-  read -r wall user sys rss <"$work/$label.time"
+  read -r wall user sys rss < <(tail -n 1 "$work/$label.time")  # after "Command exited with non-zero status 3"
   local decoded=""
   [[ $label != check* ]] || decoded=$(jq -r '"\(.frames_decoded) of \(.frames_total)"' "$work/chk/check.json" 2>/dev/null || echo "?")
   echo "$label $wall $(echo "$user + $sys" | bc) $((rss / 1024)) $decoded" | tee -a "$times"
