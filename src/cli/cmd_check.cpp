@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <malloc.h>
 #include <limits>
 #include <memory>
 
@@ -82,6 +83,14 @@ io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::strin
   l.run = run_check(store, l.T_ins_lidar_installed, l.time_offset_installed_s, config, tool.check);
   const double t_end = data.frames.frames.empty() ? 0.0 : data.frames.frames.back().t_end_s;
   l.drive_end = io::iso8601_utc(t_end + l.run.measured.time_offset_s);
+  // The report's 3D view needs 60 frames and 50-80 MB of its own: the stages' 300 decoded sweeps
+  // (250 MB at the sensor's resolution) and the memory they freed go back first, so that a
+  // 10-minute drive's check stays within 500 MB (587 -> 468-478 MB for ~0.5 s of CPU;
+  // bench/results/check.md). cli/main.cpp keeps freed memory otherwise.
+  store.forget();
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
   l.viewer = io::check_viewer_scene(store, l.run, l.T_ins_lidar_installed, l.time_offset_installed_s, viewer);
   return l;
 }

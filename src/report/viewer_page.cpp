@@ -23,20 +23,20 @@ using nlohmann::json;
 
 constexpr std::size_t kMaxTrajectoryPoints = 4000;  // a line, not a data set: enough to follow the drive
 
-// In parallel over 3-byte groups (tens of MB for a full view: the report must not wait on it).
-std::string base64(const std::string& bytes) {
+// Appended to `out` in place, in parallel over 3-byte groups (tens of MB for a full view: the
+// report must not wait on it, nor hold a second copy of it).
+void append_base64(const std::string& bytes, std::string& out) {
   static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  const std::size_t groups = (bytes.size() + 2) / 3;
-  std::string out(groups * 4, '=');
+  const std::size_t groups = (bytes.size() + 2) / 3, at = out.size();
+  out.resize(at + groups * 4, '=');
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, groups, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
     for (std::size_t g = r.begin(); g < r.end(); ++g) {
       const std::size_t i = 3 * g, n = std::min<std::size_t>(3, bytes.size() - i);
       std::uint32_t v = 0;
       for (std::size_t k = 0; k < 3; ++k) v = (v << 8) | (k < n ? static_cast<std::uint8_t>(bytes[i + k]) : 0u);
-      for (std::size_t k = 0; k <= n; ++k) out[4 * g + k] = kAlphabet[(v >> (18 - 6 * k)) & 63];
+      for (std::size_t k = 0; k <= n; ++k) out[at + 4 * g + k] = kAlphabet[(v >> (18 - 6 * k)) & 63];
     }
   });
-  return out;
 }
 
 json vec(const Vec3& p) { return json::array({p.x(), p.y(), p.z()}); }
@@ -185,7 +185,11 @@ ViewerOutput encode_viewer(const ViewerScene& scene, const std::string& dir) {
   const Box box = bounding_box(scene);
   const std::vector<std::uint32_t> order = run_order(scene);
   std::string data = "window.insalignViewerData = {\"meta\": " + meta_json(scene, box, order).dump() + ",\n\"points\": \"";
-  data += base64(point_bytes(scene, box, order));
+  {
+    const std::string bytes = point_bytes(scene, box, order);
+    data.reserve(data.size() + (bytes.size() + 2) / 3 * 4 + 4);
+    append_base64(bytes, data);
+  }
   data += "\"};\n";
   out.data_bytes = data.size();
   out.files.emplace_back(dir + "/viewer_data.js", std::move(data));
