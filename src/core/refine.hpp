@@ -203,9 +203,9 @@ struct RefineResult {
   /// of the drive, so the repeatability segments cannot show it.
   Vec6 ins_position_stddev = Vec6::Zero();
   /// What an INS position error e_f (world frame) of the problem's frame f moves this estimate
-  /// by, to first order: ins_shift[f] * e_f, rows x y z roll pitch yaw (rad) and time offset (s),
-  /// zero for DOFs not estimated; frames at (LiDAR clock) times ins_shift_t_s[f]. Any error model's share
-  /// follows from it (ins_position_stddev is one; random_walk_stddev another).
+  /// by, to first order: -ins_shift[f] * e_f, rows x y z roll pitch yaw (rad) and time offset
+  /// (s), zero for DOFs not estimated; frame f at LiDAR time ins_shift_t_s[f]. Any error model's
+  /// share follows from it (ins_position_stddev is one; random_walk_stddev another).
   std::vector<double> ins_shift_t_s;
   std::vector<Eigen::Matrix<double, 7, 3>> ins_shift;
   std::vector<RefineRound> rounds;
