@@ -90,6 +90,21 @@ TEST(Progress, VerboseLogGetsALinePerTenthAndDetails) {
   EXPECT_EQ(count_lines(text), 9 + 1 + 1) << text;  // 10%..90%, the detail, done
 }
 
+TEST(Progress, VerboseStepThatJumpsToItsEndPrintsOnlyItsDoneLine) {
+  Captured out;
+  {
+    ProgressBar bar(Verbosity::kVerbose, out.file.get(), false);
+    bar.update("3d view", 0.0);
+    bar.update("3d view", 1.0);
+    bar.update("report", 0.0);
+    bar.update("report", 0.55);  // crosses five tenths at once: one line
+    bar.update("report", 1.0);
+  }
+  const std::string text = out.text();
+  EXPECT_EQ(count_lines(text), 1 + 1 + 1) << text;  // 3d view done, report 55%, report done
+  EXPECT_NE(text.find("3d view    done in"), std::string::npos) << text;
+}
+
 TEST(Progress, QuietPrintsNothing) {
   Captured out;
   {

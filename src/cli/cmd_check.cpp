@@ -10,6 +10,7 @@
 
 #include "cli/commands.hpp"
 #include "cli/input_options.hpp"
+#include "cli/progress.hpp"
 #include "tool/tool_config.hpp"
 #include "core/check_run.hpp"
 #include "core/errors.hpp"
@@ -28,7 +29,7 @@ struct CheckOptions {
   std::string history;
   std::string out;
   double ins_height_m = std::numeric_limits<double>::quiet_NaN();
-  bool quiet = false;
+  bool quiet = false, verbose = false;
 };
 
 struct Installed {
@@ -80,7 +81,8 @@ io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::strin
   const PipelineConfig config = pipeline_config(o, tool.calibrate);
   const FrameStore store = make_frame_store(data, config);
   if (!o.quiet) fmt::print(stderr, "checking {}{} ...\n", name.empty() ? "" : name + " against ", installed.source);
-  l.run = run_check(store, l.T_ins_lidar_installed, l.time_offset_installed_s, config, tool.check);
+  ProgressBar bar(o.quiet ? Verbosity::kQuiet : (o.verbose ? Verbosity::kVerbose : Verbosity::kNormal), stderr);
+  l.run = run_check(store, l.T_ins_lidar_installed, l.time_offset_installed_s, config, tool.check, bar.callback());
   const double t_end = data.frames.frames.empty() ? 0.0 : data.frames.frames.back().t_end_s;
   l.drive_end = io::iso8601_utc(t_end + l.run.measured.time_offset_s);
   // The report's 3D view needs 60 frames and 50-80 MB of its own: the stages' 300 decoded sweeps
@@ -91,7 +93,10 @@ io::LidarCheck check_lidar(const CheckOptions& o, Dataset data, const std::strin
 #ifdef __GLIBC__
   malloc_trim(0);
 #endif
+  bar.update("3d view", 0.0);
   l.viewer = io::check_viewer_scene(store, l.run, l.T_ins_lidar_installed, l.time_offset_installed_s, viewer);
+  bar.update("3d view", 1.0);
+  bar.finish();
   return l;
 }
 
@@ -169,6 +174,7 @@ Command make_check_command() {
     add_config_options(*sub, o->config);
     sub->add_option("--out", o->out, "output folder")->required();
     sub->add_flag("-q,--quiet", o->quiet, "only the verdict and the result path");
+    sub->add_flag("-v,--verbose", o->verbose, "each step's wall and CPU time");
     return sub;
   };
   command.run = [o] { return run_check_command(*o); };

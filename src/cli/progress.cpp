@@ -65,9 +65,10 @@ void ProgressBar::update(std::string_view step, double fraction) {
     line_open_ = true;
   } else if (verbosity_ == Verbosity::kVerbose) {
     // Logs: a line every 10%, not a redraw.
-    while (next_verbose_decile_ <= 9 && fraction_ >= next_verbose_decile_ / 10.0) {
-      fmt::print(out_, "{}\n", bar_line(step_, fraction_, elapsed));
-      ++next_verbose_decile_;
+    // One line per decile crossed (a step that jumps to its end prints none: its "done" line follows).
+    if (next_verbose_decile_ <= 9 && fraction_ >= next_verbose_decile_ / 10.0) {
+      next_verbose_decile_ = static_cast<int>(std::floor(fraction_ * 10.0)) + 1;
+      if (fraction_ < 1.0) fmt::print(out_, "{}\n", bar_line(step_, fraction_, elapsed));
     }
   } else if (fraction_ < 1.0 && now - last_log_ >= log_interval_ && fraction_ >= last_logged_fraction_ + 0.1) {
     // Logs of a long step: a line now and then says it is alive, without flooding the log.
