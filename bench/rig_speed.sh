@@ -2,7 +2,7 @@
 # A four-LiDAR rig against its roof LiDAR alone (issue 41, point 2): the default `calibrate`
 # (3 segments, report) on the rig of docs/rigs.md and on its roof LiDAR, interleaved, for one or
 # two builds (BEFORE: another build's insalign, e.g. main's), REPEAT rounds in the order
-# rig-after rig-before roof-after roof-before. Prints one line per run: label, wall s, CPU s
+# rig-after rig-before roof-after roof-off (trajectory.mode=off) roof-before. Prints one line per run: label, wall s, CPU s
 # (user + sys), peak RSS MB; then the medians. The drive is simulated once into WORK_DIR (3.6 GB).
 #   [BUILD_DIR=build] [BEFORE=/work/main/build/src/insalign] [REPEAT=3] [SIM_ARGS="--seed 1"] \
 #     [CALIBRATE_ARGS="-q"] bash bench/rig_speed.sh WORK_DIR
@@ -39,10 +39,13 @@ for ((r = 0; r < repeat; ++r)); do
   run rig-after "$bin" "${rig_args[@]}"
   [[ -z $before ]] || run rig-before "$before" "${rig_args[@]}"
   run roof-after "$bin" "${roof_args[@]}"
+  # The rig does not run the INS trajectory correction; the roof alone evaluates it wherever its
+  # map offsets say the INS may drift (a TUM pose file states no accuracy): without it, too.
+  run roof-off "$bin" "${roof_args[@]}" --set trajectory.mode=off
   [[ -z $before ]] || run roof-before "$before" "${roof_args[@]}"
 done
 echo "# load at the end $(cut -d' ' -f1-3 /proc/loadavg); medians: label wall_s cpu_s peak_mb"
-for label in rig-after rig-before roof-after roof-before; do
+for label in rig-after rig-before roof-after roof-off roof-before; do
   grep -q "^$label " "$times" || continue
   med() { grep "^$label " "$times" | awk -v c="$1" '{print $c}' | sort -g |
     awk '{v[NR] = $1} END {print (NR % 2) ? v[(NR + 1) / 2] : (v[NR / 2] + v[NR / 2 + 1]) / 2}'; }
