@@ -125,6 +125,12 @@ TEST(DofStatus, WeakDofsSayWhatToDo) {
   const DofStatusResult t = decide_dof_status(e);
   expect_consistent(t);
   EXPECT_TRUE(mentions(t.advice, "tx is weakly determined (+- 1.5 cm): most of it is tz's uncertainty"));
+  // Pitch's stddev mostly the INS's slow error, as the trajectory correction measured it.
+  e.ins_drift_stddev[4] = 0.07 * kRadPerDeg;
+  const DofStatusResult u = decide_dof_status(e);
+  expect_consistent(u);
+  EXPECT_TRUE(mentions(u.advice, "pitch is weakly determined (+- 0.080 deg): most of it is the INS's slow position error"));
+  EXPECT_TRUE(mentions(u.advice, "tx is weakly determined (+- 1.5 cm): most of it is tz's uncertainty"));
 }
 
 // The scenario: a drifting INS on a figure-8 without fiducials, an init whose tz is

@@ -81,9 +81,9 @@ CheckRun run_check(const FrameStore& full, const Iso3& T_installed, double offse
   if (run.result) {
     for (const std::string& w : run.result->warnings) run.findings.warnings.push_back(w);
     // Undecided mostly by the INS's drift: the drive was enough, the INS was not.
-    for (int i : {0, 1, 6}) {
+    for (int i : {0, 1, 3, 4, 5, 6}) {
       DofCheck& d = run.findings.dofs[i];
-      const double drift = run.result->ins_drift_stddev[i];
+      const double drift = run.result->ins_drift_stddev[i] * (i >= 3 && i <= 5 ? kDegPerRad : 1.0);  // check units
       if (d.verdict == DofVerdictKind::kNotObservable && std::isfinite(d.stddev) && drift > 0.5 * d.stddev)
         d.why += fmt::format("; of its stddev, {} is the INS's drift (measured by the trajectory correction): a drive "
                              "with RTK fixed throughout checks it",

@@ -32,6 +32,9 @@ std::string weak_sentence(int i, double stddev, const DofEvidence& e) {
   std::string what;
   if (e.tz_assumed_sigma_m > 0.0 && std::abs(per_tz) * e.tz_assumed_sigma_m > 0.5 * stddev)
     what = "most of it is tz's uncertainty: add fiducials or give --ins-height-m";
+  else if (e.ins_drift_stddev[i] > 0.5 * stddev)
+    what = "most of it is the INS's slow position error, which the trajectory correction measured: check the INS's "
+           "RTK status (fixed, not float), or drive with RTK fixed throughout";
   else if (i == 3 || i == 4)
     what = "drive more turns on open, level ground (a figure-8 in both directions)";
   else

@@ -65,6 +65,9 @@ struct DofEvidence {
   double tz_m = 0.0;                 ///< the final tz
   double tz_assumed_sigma_m = 0.0;   ///< not determined: the uncertainty carried into x and y (0: none carried)
   double dx_per_tz = 0.0, dy_per_tz = 0.0;  ///< stage 2's x, y change per metre of tz (m/m)
+  /// The share of each stddev that the INS's slow error, measured by the trajectory correction,
+  /// leaves in the estimate (m, rad; 0: none measured).
+  Vec6 ins_drift_stddev = Vec6::Zero();
 };
 
 /// One DOF's final status.
