@@ -57,6 +57,26 @@ TEST(InstalledExtrinsic, ReadsARigByName) {
   expect_same(u[1].T_ins_lidar, left, "urdf left");
 }
 
+// --init takes the same files: a previous result re-used as the start; a rig's file is refused
+// with what to do instead.
+TEST(InstalledExtrinsic, InitTakesAnyFormatOfOneExtrinsic) {
+  const auto dir = insalign::testing::fresh_dir("installed_", "init");
+  for (const auto& f : write_all_formats(dir, kT)) expect_same(read_init_extrinsic(f), kT, f.string());
+  write_opencalib_extrinsic(dir / "opencalib.json", kT);
+  expect_same(read_init_extrinsic(dir / "opencalib.json"), kT, "opencalib");
+  const Iso3 left = make_transform(Vec3(0.2, 0.9, 1.2), Vec3(0.0, 10.0, 90.0));
+  const std::string urdf = "<robot name=\"r\">\n<link name=\"ins\"/>\n" + format_urdf(kT, {"ins", "top"}) +
+                           format_urdf(left, {"ins", "left"}) + "</robot>\n";
+  write_file_atomic(dir / "rig.urdf", urdf);
+  try {
+    (void)read_init_extrinsic(dir / "rig.urdf");
+    ADD_FAILURE() << "a rig's URDF taken as one --init";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("rig.urdf"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("one --init per LiDAR"), std::string::npos) << e.what();
+  }
+}
+
 TEST(InstalledExtrinsic, SomethingElseIsAnInputErrorNamingTheFile) {
   for (const std::string text : {"", "hello", "{\"a\": 1}", "{\"T_ins_lidar\": [1, 2]}", "{broken"}) {
     try {

@@ -17,7 +17,7 @@ void add_input_options(CLI::App& sub, InputOptions& o, bool with_init) {
   sub.add_option("--ins-frame", o.ins_frame, "recordings with TF: the INS body frame (T_ins_lidar's ins)");
   sub.add_option("--kitti-raw", o.kitti_raw, "a KITTI raw drive folder (..._sync): velodyne_points, oxts, ../calib_imu_to_velo.txt");
   if (!with_init) return;
-  sub.add_option("--init", o.inits, "initial extrinsic, OpenCalib JSON (T_lidar_ins); repeat in the LiDARs' order; optional");
+  sub.add_option("--init", o.inits, "initial extrinsic: OpenCalib JSON, extrinsic.json or any extrinsic file insalign writes; repeat in the LiDARs' order; optional");
   sub.add_option("--fiducials", o.fiducials, "surveyed points 'id x y z' (world frame) or '# wgs84' lat lon height, to fix tz");
 }
 

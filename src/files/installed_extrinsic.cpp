@@ -1,5 +1,6 @@
 #include "files/installed_extrinsic.hpp"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -107,6 +108,14 @@ std::vector<InstalledExtrinsic> parse_installed_extrinsics(std::string_view text
 
 std::vector<InstalledExtrinsic> read_installed_extrinsics(const std::filesystem::path& path) {
   return parse_installed_extrinsics(read_file(path), path.string());
+}
+
+Iso3 read_init_extrinsic(const std::filesystem::path& path) {
+  const std::vector<InstalledExtrinsic> all = read_installed_extrinsics(path);
+  if (all.size() != 1)
+    throw InputError(path.string(), "", fmt::format("holds {} extrinsics (a rig's {}): give one --init per LiDAR, "
+                                                    "each a file of one extrinsic", all.size(), all.front().format));
+  return all.front().T_ins_lidar;
 }
 
 }  // namespace insalign::io

@@ -25,4 +25,8 @@ struct InstalledExtrinsic {
 std::vector<InstalledExtrinsic> parse_installed_extrinsics(std::string_view text, const std::string& file_for_errors);
 std::vector<InstalledExtrinsic> read_installed_extrinsics(const std::filesystem::path& path);
 
+/// An `--init` file: any of the formats above holding one extrinsic (a rig's file: one --init per
+/// LiDAR instead). Its time offset is not used: the stages estimate it.
+Iso3 read_init_extrinsic(const std::filesystem::path& path);
+
 }  // namespace insalign::io

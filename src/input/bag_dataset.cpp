@@ -7,8 +7,8 @@
 #include <set>
 #include <sstream>
 
-#include "files/extrinsic_json.hpp"
 #include "files/fiducials.hpp"
+#include "files/installed_extrinsic.hpp"
 #include "files/read_file.hpp"
 #include "recording/bag_scan.hpp"
 #include "recording/bag_topics.hpp"
@@ -228,7 +228,7 @@ BagDatasets load_bag(std::shared_ptr<const bag::BagReader> reader, const BagOpti
   std::vector<Fiducial> fiducials;
   if (options.fiducials) fiducials = read_bag_fiducials(*options.fiducials, ins.enu, ins.world_origin_m);
   std::optional<Iso3> init;
-  if (options.init) init = read_opencalib_extrinsic(*options.init);
+  if (options.init) init = read_init_extrinsic(*options.init);
   for (LidarFrames& l : lidars) {
     const std::vector<CloudFrame> used = frames_inside(l, ins.poses, rep.warnings, path);
     Dataset d;

@@ -9,8 +9,8 @@
 #include <numeric>
 
 #include "core/errors.hpp"
-#include "files/extrinsic_json.hpp"
 #include "files/fiducials.hpp"
+#include "files/installed_extrinsic.hpp"
 #include "pointcloud/pcd.hpp"
 #include "inslog/pose_source.hpp"
 #include "files/poses.hpp"
@@ -418,7 +418,7 @@ Dataset load_dataset(const DatasetPaths& paths, const InputConfig& config, LoadR
   if (!source.per_frame) report.frames_without_pose += report.frames_outside_poses;
   report.warnings.insert(report.warnings.end(), report.clock->warnings.begin(), report.clock->warnings.end());
   if (paths.init) {
-    dataset.T_ins_lidar_init = read_opencalib_extrinsic(*paths.init);
+    dataset.T_ins_lidar_init = read_init_extrinsic(*paths.init);
     report.init = "--init " + paths.init->string();
   }
   if (paths.fiducials) {

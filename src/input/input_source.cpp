@@ -5,8 +5,8 @@
 #include <algorithm>
 
 #include "core/errors.hpp"
-#include "files/extrinsic_json.hpp"
 #include "files/fiducials.hpp"
+#include "files/installed_extrinsic.hpp"
 #include "inslog/kitti.hpp"
 #include "files/read_file.hpp"
 
@@ -81,7 +81,7 @@ LoadedInput load_recording_input(const InputSpec& spec, const InputConfig& confi
     r.clock = clock;
     r.warnings.insert(r.warnings.end(), clock->warnings.begin(), clock->warnings.end());
     r.fiducials = fiducial_words(b.lidars[i].fiducials, spec.fiducials);
-    if (spec.inits.size() > 1) b.lidars[i].T_ins_lidar_init = read_opencalib_extrinsic(spec.inits.at(i));
+    if (spec.inits.size() > 1) b.lidars[i].T_ins_lidar_init = read_init_extrinsic(spec.inits.at(i));
     if (!spec.inits.empty()) r.init = "--init " + spec.inits[spec.inits.size() > 1 ? i : 0].string();
     out.reports.push_back(std::move(r));
   }
@@ -183,7 +183,7 @@ Dataset load_kitti_raw(const std::filesystem::path& drive_dir, const std::option
   Dataset d = timed_dataset(kitti_frame_source(drive), source, config, r,
                             "KITTI stamps every stream with the recording computer's clock");
   if (init) {
-    d.T_ins_lidar_init = read_opencalib_extrinsic(*init);
+    d.T_ins_lidar_init = read_init_extrinsic(*init);
     r.init = "--init " + init->string();
   } else if (drive.T_ins_lidar_init) {
     d.T_ins_lidar_init = drive.T_ins_lidar_init;
