@@ -218,5 +218,41 @@ TEST(RigScreen, StatusSpansReachEveryLidar) {
   for (const RigLidar& lidar : run(false).lidars) EXPECT_TRUE(lidar.result.excluded.empty()) << lidar.name;
 }
 
+// Rigs take the INS poses as exact (no trajectory correction): where the reference LiDAR's checks
+// show the INS drifting, the rig says so and what to do; with the correction off it says nothing.
+TEST(RigScreen, ADriftingInsIsNamedThoughRigsTakeItAsExact) {
+  PipelineConfig config;
+  config.run_refine = false;
+  config.repeatability.segments = 0;
+  const auto warnings_of = [&](sim::SimConfig sc) {
+    sc.azimuth_step_deg = 1.0;
+    sc.duration_s = 120.0;
+    sc.figure8_loops = 5;
+    sc.rig = "top:pandar64,left:vlp16@left";
+    const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+    std::vector<Dataset> data;
+    std::vector<FrameStore> stores;
+    for (std::size_t l = 0; l < world->lidars.size(); ++l) {
+      data.push_back(sim::world_dataset(world, l));
+      data.back().ins_quality.clear();  // a TUM pose file: the INS states no accuracy
+    }
+    for (const Dataset& d : data) stores.push_back(make_frame_store(d, config));
+    const RigResult r = run_rig_calibration(stores, {"top", "left"}, config);
+    std::string all;
+    for (const std::string& w : r.warnings) all += w + "\n";
+    return all;
+  };
+  sim::SimConfig drifting;
+  drifting.seed = 7;
+  drifting.ins_error.model = sim::InsErrorModel::kDrift;
+  const std::string drift = warnings_of(drifting);
+  EXPECT_NE(drift.find("so it drifts"), std::string::npos) << drift;
+  EXPECT_NE(drift.find("not applied to rigs"), std::string::npos) << drift;
+  EXPECT_NE(drift.find("Calibrate LiDAR 'top' alone"), std::string::npos) << drift;
+  config.trajectory.mode = TrajectoryCorrectionMode::kOff;
+  const std::string none = warnings_of(drifting);
+  EXPECT_EQ(none.find("not applied to rigs"), std::string::npos) << none;
+}
+
 }  // namespace
 }  // namespace insalign

@@ -176,6 +176,18 @@ void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameG
     if (config.ins_screen.from_lidar) rig.lidars[l].ins_checks_by = rig.lidars[ref].name;
     if (progress) progress("screen", double(l + 1) / double(stores.size()));
   }
+  // Rigs take the INS poses as exact (no trajectory correction yet): say so where it matters.
+  const TrajectoryCorrectionMode mode = config.trajectory.mode;
+  const DriftEvidence drift = drift_evidence(stores[ref], checks, config.trajectory);
+  if (mode == TrajectoryCorrectionMode::kAuto || mode == TrajectoryCorrectionMode::kAlways) {
+    rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
+  } else if (mode == TrajectoryCorrectionMode::kIfDrifting && drift.drifting) {
+    rig.warnings.push_back(fmt::format(
+        "rig: {}, but the INS trajectory correction is not applied to rigs: every LiDAR's extrinsic takes the INS "
+        "poses as exact. Calibrate LiDAR '{}' alone for the corrected answer, or drive with the INS RTK fixed "
+        "throughout",
+        drift.message, rig.lidars[ref].name));
+  }
 }
 
 std::vector<std::uint64_t> voxel_keys(const std::vector<Vec3f>& p_world, double voxel_m) {
@@ -762,13 +774,6 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
     rig.joint_wall_time_s = seconds_since(t_joint);
   }
   if (const std::string why = undetermined_message(rig); !why.empty()) throw UnobservableError(why);
-  const TrajectoryCorrectionMode mode = config.trajectory.mode;
-  const bool asked = mode == TrajectoryCorrectionMode::kAuto || mode == TrajectoryCorrectionMode::kAlways ||
-                     (mode == TrajectoryCorrectionMode::kIfDrifting &&
-                      stated_drift_rms_m(screened[0]) >= config.trajectory.drifting_min_stated_growth_m);
-  if (asked)
-    rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
-
   finish_all(screened, groups, inputs, rough_groups, config, near, progress, beside, rig);
   rig.pairs = lidar_pairs(groups, joints, rig);  // before: the INS's errors are common to all
   for (RigLidar& lidar : rig.lidars) add_ins_position_error(lidar.result), add_ins_heading_error(config, lidar.result);
