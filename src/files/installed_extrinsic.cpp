@@ -112,7 +112,8 @@ std::vector<InstalledExtrinsic> read_installed_extrinsics(const std::filesystem:
 
 Iso3 read_init_extrinsic(const std::filesystem::path& path) {
   const std::vector<InstalledExtrinsic> all = read_installed_extrinsics(path);
-  if (all.size() != 1)
+  if (all.empty()) throw InputError(path.string(), "", "holds no extrinsic");
+  if (all.size() > 1)
     throw InputError(path.string(), "", fmt::format("holds {} extrinsics (a rig's {}): give one --init per LiDAR, "
                                                     "each a file of one extrinsic", all.size(), all.front().format));
   return all.front().T_ins_lidar;
