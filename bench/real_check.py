@@ -83,12 +83,7 @@ def tally_check(result, truth, knocked, t):
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--insalign", default=os.path.join(HERE, "..", "build", "src", "insalign"))
-    ap.add_argument("--mirror", default="/work/.mirror", help="folder holding owner+name/repo git mirrors")
-    ap.add_argument("--work", default=os.path.join(HERE, "real_data"), help="ignored folder for the extracted scans")
-    ap.add_argument("--mounts", type=int, default=3)
-    ap.add_argument("--seeds", type=int, default=2)
-    ap.add_argument("--walk-mm", default="0,5", help="INS position random walk per axis, mm/sqrt(s), comma-separated")
+    rs.case_arguments(ap)
     args = ap.parse_args()
     insalign = os.path.abspath(args.insalign)
     src = rs.extract(os.path.join(args.mirror, "hku-mars+BALM", "repo"), ["datas/benchmark_realworld"],

@@ -298,14 +298,19 @@ def record(label, code, result, wall, err, T_gt, rows, tally):
     rows.append(f"| {label} | {' | '.join(cells)} | {result.get('tz_source', '?')} | {offset_ms:.1f} | {wall:.1f} |")
 
 
-def main():
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+def case_arguments(ap):
+    """The options that choose the BALM cases (shared with bench/real_check.py)."""
     ap.add_argument("--insalign", default=os.path.join(HERE, "..", "build", "src", "insalign"))
     ap.add_argument("--mirror", default="/work/.mirror", help="folder holding owner+name/repo git mirrors")
     ap.add_argument("--work", default=os.path.join(HERE, "real_data"), help="ignored folder for the extracted scans")
     ap.add_argument("--mounts", type=int, default=3)
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--walk-mm", default="0,5", help="INS position random walk per axis, mm/sqrt(s), comma-separated")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    case_arguments(ap)
     ap.add_argument("--init-rot-deg", type=float, default=3.0)
     ap.add_argument("--init-trans-m", type=float, default=0.1)
     ap.add_argument("--noise-scale", type=float, default=1.0, help="scale of the INS's white noise (0: exact odometry)")
