@@ -162,7 +162,10 @@ std::string undecided_dofs_message(const std::array<DofCheck, 7>& dofs, const st
     if (std::find(drives.begin(), drives.end(), drive) == drives.end()) drives.push_back(drive);
   }
   std::string out = fmt::format("this drive cannot decide {}.", fmt::join(names, ", "));
-  for (const std::string& d : drives) out += " " + d + ".";
+  for (std::string d : drives) {
+    if (d.starts_with("the ")) d[0] = 'T';  // a sentence of its own ("tz needs ..." keeps the DOF's name)
+    out += " " + d + ".";
+  }
   return out;
 }
 

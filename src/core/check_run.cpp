@@ -1,5 +1,6 @@
 #include "core/check_run.hpp"
 
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
@@ -75,8 +76,10 @@ CheckRun run_check(const FrameStore& full, const Iso3& T_installed, double offse
     // Why the stages stopped, and still which DOFs and what drive would decide them.
     for (int i = 0; i < 7; ++i)
       run.findings.dofs[i].why = fmt::format("this drive determines nothing ({}): {}", run.why_unobservable, observing_drive(i));
-    run.findings.message = fmt::format("inconclusive: {}; {}", run.why_unobservable,
-                                       undecided_dofs_message(run.findings.dofs, unchecked_dofs(config.check)));
+    std::string undecided = undecided_dofs_message(run.findings.dofs, unchecked_dofs(config.check));
+    if (!undecided.empty()) undecided[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(undecided[0])));
+    const bool full_stop = run.why_unobservable.ends_with('.');  // the stages' reason is sentences
+    run.findings.message = fmt::format("inconclusive: {}{} {}", run.why_unobservable, full_stop ? "" : ".", undecided);
   }
   if (run.result) {
     for (const std::string& w : run.result->warnings) run.findings.warnings.push_back(w);
