@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <iterator>
 
 namespace insalign {
 namespace {
@@ -101,6 +102,13 @@ std::vector<Sweep> FrameStore::thinned(const std::vector<std::size_t>& indices, 
                                                              : thin_sweep(decode_reduced(i), own);
                       if (mask_) out[k] = kept_points(out[k], mask_->keep(indices[k], out[k]));
                     });
+  return out;
+}
+
+std::vector<TimeSpan> ins_spans(const std::vector<TimeSpan>& spans) {
+  std::vector<TimeSpan> out;
+  std::copy_if(spans.begin(), spans.end(), std::back_inserter(out),
+               [](const TimeSpan& s) { return s.kind != SpanKind::kNotChosen; });
   return out;
 }
 

@@ -27,21 +27,23 @@ enum class SpanKind {
   kLargeStddev,     ///< the INS states a standard deviation far above the drive's typical one
   kMotionMismatch,  ///< LiDAR scan-to-scan motion disagrees with the INS motion (a jump)
   kOffMap,          ///< the frames sit off the surfaces the rest of the drive agrees on
+  kNotChosen,       ///< not an INS fault: `check` did not choose this stretch (core/stretches.hpp)
 };
-inline constexpr std::array<std::pair<SpanKind, std::string_view>, 6> kSpanKindNames{
+inline constexpr std::array<std::pair<SpanKind, std::string_view>, 7> kSpanKindNames{
     {{SpanKind::kDegradedFix, "degraded-fix"}, {SpanKind::kInsOnly, "ins-only"}, {SpanKind::kInvalid, "invalid"},
      {SpanKind::kLargeStddev, "large-stddev"}, {SpanKind::kMotionMismatch, "motion-mismatch"},
-     {SpanKind::kOffMap, "off-map"}}};
+     {SpanKind::kOffMap, "off-map"}, {SpanKind::kNotChosen, "not-chosen"}}};
 constexpr auto enum_names(SpanKind) { return std::span(kSpanKindNames); }
 
 enum class SpanSource {
   kInsStatus,    ///< the INS's own solution status and stated standard deviations
   kLidarMotion,  ///< scan-to-scan registration against the INS motion
   kMapResidual,  ///< per-frame offset from the map of the rest of the drive
+  kCheck,        ///< the check's choice of informative stretches
 };
-inline constexpr std::array<std::pair<SpanSource, std::string_view>, 3> kSpanSourceNames{
+inline constexpr std::array<std::pair<SpanSource, std::string_view>, 4> kSpanSourceNames{
     {{SpanSource::kInsStatus, "ins-status"}, {SpanSource::kLidarMotion, "lidar-motion"},
-     {SpanSource::kMapResidual, "map-residual"}}};
+     {SpanSource::kMapResidual, "map-residual"}, {SpanSource::kCheck, "check"}}};
 constexpr auto enum_names(SpanSource) { return std::span(kSpanSourceNames); }
 
 /// A span of INS time [begin, end] left out of the calibration (a bad INS stretch), and why.
@@ -51,6 +53,9 @@ struct TimeSpan {
   SpanKind kind = SpanKind::kDegradedFix;
   SpanSource source = SpanSource::kInsStatus;
 };
+
+/// The spans that blame the INS: every one but those `check` left out for its own reasons.
+std::vector<TimeSpan> ins_spans(const std::vector<TimeSpan>& spans);
 
 /// Which points of a frame the stages may use: points on things that moved are not (see
 /// core/moving_points.hpp). Thread-safe.

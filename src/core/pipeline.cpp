@@ -199,7 +199,7 @@ FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& l
   FrameStore out = leave_out_spans(store, lidar_checks.spans);
   if (auto mask = find_moving_points(out, r.T_ins_lidar, r.time_offset_s, config.moving, r.moving))
     out = out.with_mask(mask);
-  r.excluded = out.excluded();
+  r.excluded = ins_spans(out.excluded());
   if (out.excluded().size() != store.excluded().size()) groups = rough_frame_groups(out, config.rough, r.time_offset_s);
   return out;
 }

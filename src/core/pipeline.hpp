@@ -84,7 +84,8 @@ struct CalibrationResult {
   /// result takes the joint extrinsic (stage 3 and the repeatability study keep the reported poses).
   TrajectoryCorrection trajectory;
   /// Bad INS stretches: the INS status spans (before any stage) and the LiDAR checks (after
-  /// stage 1); `excluded` = every span stages 2, 3 and the repeatability study left out.
+  /// stage 1); `excluded` = every such span stages 2, 3 and the repeatability study left out
+  /// (not the stretches `check` did not choose: check.json's `used` names what it chose).
   InsScreenResult ins_screen;
   std::vector<TimeSpan> excluded;
   MovingPointsResult moving;            ///< points on moving things, masked from stage 2 on

@@ -132,12 +132,15 @@ FrameStore keep_stretches(const FrameStore& store, const std::vector<Stretch>& s
   if (stretches.empty()) return store;
   std::vector<TimeSpan> left_out = store.excluded();
   const double t0 = store.poses().t_begin() - 1.0, t1 = store.poses().t_end() + 1.0;
+  auto leave_out = [&](double begin_s, double end_s) {
+    left_out.push_back({begin_s, end_s, "not an informative stretch (check)", SpanKind::kNotChosen, SpanSource::kCheck});
+  };
   double from = t0;
   for (const Stretch& s : stretches) {
-    if (s.begin_s > from) left_out.push_back({from, s.begin_s, "not an informative stretch (check)"});
+    if (s.begin_s > from) leave_out(from, s.begin_s);
     from = std::max(from, s.end_s);
   }
-  if (t1 > from) left_out.push_back({from, t1, "not an informative stretch (check)"});
+  if (t1 > from) leave_out(from, t1);
   return store.with(store.poses(), std::move(left_out));
 }
 
