@@ -87,18 +87,16 @@ RigFileLidar lidar_from_json(const std::string& name, const json& j, const std::
 
 std::string urdf_num(double v) { return fmt::format("{:.17g}", v + 0.0); }
 
-// One LiDAR's own folder: its usual files, with the rig's note in extrinsic.json. Its report's
-// maps are left in `maps` (start first, final last) for the rig's combined map, which shows the
-// same frames at the same extrinsics: stitched once, not twice.
+// One LiDAR's own folder: its usual files, with the rig's note in extrinsic.json, and its report
+// from `drawn`'s pictures (nullptr: no report). The drawing's maps go to the rig's combined map,
+// which shows the same frames at the same extrinsics: stitched once, not twice.
 void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, const FrameStore& store, RunInfo run,
-                     const PipelineConfig& config, const RigOutputOptions& options,
-                     std::optional<LidarReportDrawing>& drawn) {
+                     const PipelineConfig& config, const RigOutputOptions& options, const LidarReportDrawing* drawn) {
   ensure_writable_dir(dir);
   const CalibrationResult& r = lidar.result;
   run.format_files = write_all_formats(dir, r.T_ins_lidar, FrameNames{"ins", lidar.name});
   write_opencalib_extrinsic(dir / "gnss-to-lidar-extrinsic.json", r.T_ins_lidar);
-  if (options.report) {
-    if (!drawn) drawn = draw_lidar_report(r, store, options.viewer, 1);
+  if (drawn) {
     ReportData data = report_data(r, store, run, config);
     data.title = "insalign calibration report: LiDAR '" + lidar.name + "' of the rig";
     data.child_frame = lidar.name;
@@ -230,29 +228,39 @@ std::vector<std::filesystem::path> write_rig_outputs(const std::filesystem::path
   ensure_writable_dir(out_dir);
   const std::size_t n = rig.lidars.size();
   drawn.resize(n);
-  // Each LiDAR's folder and report on its own: side by side, as one report alone leaves a core
-  // idle in its serial parts. Every LiDAR's maps are kept for the combined report anyway.
-  std::atomic<std::size_t> done{0};
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
-    write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options, drawn[l]);
-    if (progress) progress(static_cast<double>(++done) / (n + 1));
-  });
+  if (options.report)  // pictures not drawn beside the repeatability study
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
+      if (!drawn[l]) drawn[l] = draw_lidar_report(rig.lidars[l].result, stores[l], options.viewer, 1);
+    });
   std::vector<std::filesystem::path> files;
-  write_file_atomic(out_dir / kRigUrdfFile, format_rig_urdf(rig));
-  files.push_back(out_dir / kRigUrdfFile);
-  if (options.report) {
-    std::vector<std::vector<MapSnapshot>> lidar_maps(n);
-    std::vector<ViewerScene> scenes(n);
-    std::vector<std::string> names;
-    for (std::size_t l = 0; l < n; ++l) {
-      lidar_maps[l] = std::move(drawn[l]->maps);
-      scenes[l] = std::move(drawn[l]->scene);
-      scenes[l].sections.clear();  // each LiDAR's own; the rig's report marks none of them
-      names.push_back(rig.lidars[l].name);
-    }
-    const ViewerScene scene = merge_scenes(std::move(scenes), names);
-    files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line, &scene));
-  }
+  // Each LiDAR's folder and the rig's report side by side, the folders among themselves too: one
+  // report alone leaves a core idle in its serial parts. The folders read each drawing's images,
+  // the rig's report takes its maps and 3D points.
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_invoke(
+      [&] {
+        tbb::parallel_for(std::size_t{0}, n, [&](std::size_t l) {
+          write_lidar_dir(out_dir / rig.lidars[l].name, rig.lidars[l], stores[l], runs[l], config, options,
+                          options.report ? &*drawn[l] : nullptr);
+          if (progress) progress(static_cast<double>(++done) / (n + 1));
+        });
+      },
+      [&] {
+        write_file_atomic(out_dir / kRigUrdfFile, format_rig_urdf(rig));
+        files.push_back(out_dir / kRigUrdfFile);
+        if (!options.report) return;
+        std::vector<std::vector<MapSnapshot>> lidar_maps(n);
+        std::vector<ViewerScene> scenes(n);
+        std::vector<std::string> names;
+        for (std::size_t l = 0; l < n; ++l) {
+          lidar_maps[l] = std::move(drawn[l]->maps);
+          scenes[l] = std::move(drawn[l]->scene);
+          scenes[l].sections.clear();  // each LiDAR's own; the rig's report marks none of them
+          names.push_back(rig.lidars[l].name);
+        }
+        const ViewerScene scene = merge_scenes(std::move(scenes), names);
+        files.push_back(write_rig_report(out_dir, rig, rig_maps(std::move(lidar_maps)), options.command_line, &scene));
+      });
   write_file_atomic(out_dir / kRigJsonFile, rig_to_json(rig).dump(2) + "\n");
   files.push_back(out_dir / kRigJsonFile);
   if (progress) progress(1.0);
