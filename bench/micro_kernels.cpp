@@ -28,6 +28,7 @@
 #include "core/refine.hpp"
 #include "core/stitch.hpp"
 #include "core/rough.hpp"
+#include "core/scan_registration.hpp"
 #include "sim/simulate.hpp"
 #include "sim/world_dataset.hpp"
 
@@ -229,6 +230,26 @@ void BM_RoughPointPlaneSystem(benchmark::State& state) {
   state.counters["clusters"] = static_cast<double>(w.observations.size());
 }
 BENCHMARK(BM_RoughPointPlaneSystem)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// --- Scan registration's target: kd-tree, normals, nearest planar point -----------------------
+
+// A map-check target (the stage-2 map thinned to 10 cm, normals fitted up front: its kd-tree's
+// k-nearest searches), then the nearest planar target point of every map point shifted by 3 cm
+// (a registration's correspondences).
+void BM_PlaneTargetNormalsNearest(benchmark::State& state) {
+  std::vector<Vec3> points;
+  for (const Vec3f& p : voxel_downsample(stage2_map(), 0.1)) points.push_back(p.cast<double>());
+  std::size_t found = 0;
+  for (auto _ : state) {
+    const PlaneTarget target(points, 10, 0.05);
+    found = 0;
+    for (const Vec3& p : points) found += target.nearest_planar(p + Vec3(0.03, 0.0, 0.0), 0.5).has_value();
+    benchmark::DoNotOptimize(found);
+  }
+  set_points(state, points.size());
+  state.counters["found"] = static_cast<double>(found);
+}
+BENCHMARK(BM_PlaneTargetNormalsNearest)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // --- Stage 2: plane-thickness cost -------------------------------------------------------------
 
