@@ -5,6 +5,9 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <array>
+#include <cstdint>
+#include <vector>
 #include <cmath>
 #include <utility>
 
@@ -57,20 +60,27 @@ void fit_cell(const std::vector<Vec3f>& points, std::uint32_t* begin, std::uint3
   }
   const double half = 0.5 * size_m;
   if (half < config.min_voxel_m * (1.0 - 1e-9)) return;
-  // Octant of each point relative to the cell centre; group them and fit each.
+  // Octant of each point relative to the cell centre; group them (a counting sort, in the order
+  // they came: a comparison sort was a sixth of stage 2's plane fits) and fit each.
   const auto octant = [&](std::uint32_t k) {
     const Vec3f& p = points[k];
     return (p.x() > center.x() ? 1 : 0) | (p.y() > center.y() ? 2 : 0) | (p.z() > center.z() ? 4 : 0);
   };
-  std::sort(begin, end, [&](std::uint32_t a, std::uint32_t b) { return octant(a) < octant(b); });
-  std::uint32_t* it = begin;
-  while (it != end) {
-    const int o = octant(*it);
-    std::uint32_t* stop = it;
-    while (stop != end && octant(*stop) == o) ++stop;
+  std::array<std::uint32_t, 9> first{};
+  thread_local std::vector<std::uint8_t> octants;
+  thread_local std::vector<std::uint32_t> grouped;
+  octants.resize(static_cast<std::size_t>(n));
+  grouped.resize(static_cast<std::size_t>(n));
+  for (std::ptrdiff_t i = 0; i < n; ++i) ++first[1 + (octants[i] = static_cast<std::uint8_t>(octant(begin[i])))];
+  for (int o = 0; o < 8; ++o) first[o + 1] += first[o];
+  std::array<std::uint32_t, 8> next;
+  std::copy(first.begin(), first.end() - 1, next.begin());
+  for (std::ptrdiff_t i = 0; i < n; ++i) grouped[next[octants[i]]++] = begin[i];
+  std::copy(grouped.begin(), grouped.begin() + n, begin);  // before recursing: the buffers are reused
+  for (int o = 0; o < 8; ++o) {
+    if (first[o + 1] == first[o]) continue;
     const Vec3 child = center + 0.25 * size_m * Vec3((o & 1) ? 1 : -1, (o & 2) ? 1 : -1, (o & 4) ? 1 : -1);
-    fit_cell(points, it, stop, child, half, config, offset + static_cast<std::uint32_t>(it - begin), out);
-    it = stop;
+    fit_cell(points, begin + first[o], begin + first[o + 1], child, half, config, offset + first[o], out);
   }
 }
 
