@@ -8,10 +8,15 @@
 // coverage: the scenarios of bench/scenarios.hpp (default pipeline, repeatability included), per
 //   degree of freedom the fraction of runs whose error is within 3 reported standard deviations
 //   (a DOF the run reports undetermined counts as covered and is tallied apart; see Coverage).
+// modes: per scenario, the trajectory correction's modes side by side on the same drives: perfect
+//   poses (the method's own floor on that drive: no INS error at all), `off`, `auto` and the
+//   default (`if-drifting`); MAE and worst per DOF, how often the correction was applied, time.
 //
 //   build/bench/ins_robustness --study drift --seeds 10 [--azimuth-step-deg 0.4]
 //   build/bench/ins_robustness --study coverage --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
 //       [--scenarios default,drift,...]
+//   build/bench/ins_robustness --study modes --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
+//       --scenarios default,recorded,drift-position,drift,float,wrong-fix,outage,traffic
 // Skips (exit 0) when the recorded trajectory file is missing.
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
@@ -20,6 +25,7 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 
 #include "scenarios.hpp"
@@ -78,6 +84,14 @@ Calibrated calibrate(const sim::SimConfig& sim_config, bool use_init, const Pipe
 void print_row(const std::string& label, const Vec6& v) {
   fmt::print("| {:<34} | {:>6.2f} | {:>6.2f} | {:>7.1f} | {:>7.4f} | {:>7.4f} | {:>7.4f} |\n", label, 1e3 * v[0],
              1e3 * v[1], 1e3 * v[2], v[3], v[4], v[5]);
+}
+
+std::vector<std::string> split(const std::string& list) {
+  std::vector<std::string> out;
+  std::stringstream ss(list);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
 }
 
 // ---- drift ---------------------------------------------------------------------------------
@@ -164,6 +178,74 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
   return 0;
 }
 
+// ---- modes ---------------------------------------------------------------------------------
+
+int modes_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::uint64_t first_seed) {
+  struct Arm {
+    std::string label;
+    bool perfect = false;
+    std::optional<TrajectoryCorrectionMode> mode;  ///< none: the configuration's (the default)
+  };
+  const std::vector<Arm> arms = {{"perfect poses", true, TrajectoryCorrectionMode::kOff},
+                                 {"off", false, TrajectoryCorrectionMode::kOff},
+                                 {"auto", false, TrajectoryCorrectionMode::kAuto},
+                                 {fmt::format("default ({})", enum_name(tool.calibrate.trajectory.mode)), false, {}}};
+  struct Tally {
+    Vec6 sum = Vec6::Zero(), worst = Vec6::Zero();
+    int runs = 0, failed = 0, applied = 0;
+    double wall_s = 0.0;
+  };
+  const std::vector<std::string> names = split(o.scenarios);
+  std::vector<std::vector<Tally>> tallies(names.size(), std::vector<Tally>(arms.size()));
+  for (int s = 0; s < seeds; ++s) {  // seed-major, as coverage
+    const std::uint64_t seed = first_seed + static_cast<std::uint64_t>(s);
+    for (std::size_t n = 0; n < names.size(); ++n) {
+      bench::ScenarioRun sc = bench::make_scenario(names[n], tool.sim, seed, o.trajectory_file);
+      sc.sim.azimuth_step_deg = o.azimuth_step_deg;
+      sc.sim.duration_s = sc.recorded ? o.recorded_duration_s : o.duration_s;
+      for (std::size_t a = 0; a < arms.size(); ++a) {
+        sim::SimConfig sim = sc.sim;
+        if (arms[a].perfect) sim.ins_error = sim::InsErrorConfig{}, sim.ins_noise_scale = 0.0;
+        PipelineConfig pipeline = tool.calibrate;
+        pipeline.repeatability.segments = 0;  // the estimate, not its stddev
+        if (arms[a].mode) pipeline.trajectory.mode = *arms[a].mode;
+        const auto t0 = std::chrono::steady_clock::now();
+        const Calibrated c = calibrate(sim, sc.use_init, pipeline, o.no_stated_quality);
+        Tally& t = tallies[n][a];
+        if (!c.ok) {
+          ++t.failed;
+          fmt::print(stderr, "RUN {} seed {} {}: FAIL {}\n", names[n], seed, arms[a].label, c.message);
+          continue;
+        }
+        const Vec6 err = abs_error(c.r.T_ins_lidar, c.world->T_ins_lidar_true);
+        ++t.runs, t.applied += c.r.trajectory.applied, t.sum += err, t.worst = t.worst.cwiseMax(err);
+        t.wall_s += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        fmt::print(stderr, "RUN {} seed {} {}: xyz {:.1f} {:.1f} {:.1f} mm rpy {:.4f} {:.4f} {:.4f} deg | {}\n", names[n], seed,
+                   arms[a].label, 1e3 * err[0], 1e3 * err[1], 1e3 * err[2], err[3], err[4], err[5],
+                   c.r.trajectory.decision.empty() ? "no correction estimated" : c.r.trajectory.decision);
+      }
+    }
+  }
+  fmt::print("\nThe trajectory correction's modes side by side, {} seeds from {} per scenario, azimuth step {} deg, "
+             "stage 2's estimate (no repeatability segments); MAE (worst): x, y, z mm, roll, pitch, yaw deg\n\n",
+             seeds, first_seed, o.azimuth_step_deg);
+  fmt::print("| scenario | arm | runs | applied | x | y | z | roll | pitch | yaw | s per run |\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|\n");
+  for (std::size_t n = 0; n < names.size(); ++n)
+    for (std::size_t a = 0; a < arms.size(); ++a) {
+      const Tally& t = tallies[n][a];
+      if (t.runs == 0) continue;
+      const Vec6 mae = t.sum / t.runs;
+      std::string cells;
+      for (int i = 0; i < 6; ++i)
+        cells += i < 3 ? fmt::format(" {:.1f} ({:.1f}) |", 1e3 * mae[i], 1e3 * t.worst[i])
+                       : fmt::format(" {:.4f} ({:.4f}) |", mae[i], t.worst[i]);
+      fmt::print("| {} | {} | {}{} | {} |{} {:.1f} |\n", names[n], arms[a].label, t.runs,
+                 t.failed ? fmt::format("+{}F", t.failed) : "", t.applied, cells, t.wall_s / t.runs);
+    }
+  return 0;
+}
+
 // ---- coverage ------------------------------------------------------------------------------
 
 // How a DOF of one run counts: covered when the error is within 3 reported stddev; a DOF the run
@@ -194,14 +276,6 @@ struct Coverage {
                            : fmt::format("{}/{}", within[i], counted[i]);
   }
 };
-
-std::vector<std::string> split(const std::string& list) {
-  std::vector<std::string> out;
-  std::stringstream ss(list);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 // One run's line: error, 3 sd and error / sd per DOF (mm, deg; "u": reported undetermined).
 void print_coverage_run(const std::string& name, std::uint64_t seed, const Vec6& err, const Vec6& sd,
@@ -294,7 +368,7 @@ int main(int argc, char** argv) {
   int seeds = 10;
   std::uint64_t first_seed = 1;
   Options o;
-  app.add_option("--study", o.study, "drift or coverage")->capture_default_str();
+  app.add_option("--study", o.study, "drift, coverage or modes")->capture_default_str();
   app.add_option("--seeds", seeds)->capture_default_str();
   app.add_option("--first-seed", first_seed)->capture_default_str();
   app.add_option("--trajectory", o.trajectory_file, "recorded pose file")->capture_default_str();
@@ -323,6 +397,7 @@ int main(int argc, char** argv) {
   }
   if (o.study == "drift") return drift_study(tool, o, seeds, first_seed);
   if (o.study == "coverage") return coverage_study(tool, o, seeds, first_seed);
-  fmt::print(stderr, "unknown --study '{}' (drift or coverage)\n", o.study);
+  if (o.study == "modes") return modes_study(tool, o, seeds, first_seed);
+  fmt::print(stderr, "unknown --study '{}' (drift, coverage or modes)\n", o.study);
   return 2;
 }

@@ -6,10 +6,10 @@
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <array>
-#include <cstdint>
-#include <vector>
 #include <cmath>
+#include <cstdint>
 #include <utility>
+#include <vector>
 
 #include "core/voxel_grid.hpp"
 
