@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <memory>
+#include <string>
 
 #include "core/ins_screen.hpp"
 #include "core/pipeline.hpp"
@@ -13,6 +14,13 @@
 
 namespace insalign {
 namespace {
+
+// Whether one of the result's advice sentences starts so.
+bool advises(const CalibrationResult& r, const std::string& start) {
+  for (const std::string& a : r.advice)
+    if (a.starts_with(start)) return true;
+  return false;
+}
 
 double overlap_s(const TimeSpan& s, double t0, double t1) { return std::max(0.0, std::min(s.end_s, t1) - std::max(s.begin_s, t0)); }
 
@@ -76,6 +84,9 @@ TEST(InsScreen, WrongFixIsFoundAndTheResultStaysWithinBounds) {
   EXPECT_LT(spans_duration_s(r.excluded) - covered_s(r.excluded, fix.t_begin_s - 2.5, fix.t_end_s + 2.5), 3.0)
       << "little good time left out";
   for (const TimeSpan& s : r.excluded) EXPECT_NE(s.source, SpanSource::kInsStatus) << s.reason;
+  // The advice says who found it: the LiDAR (which cannot tell a jump from a place it saw too little of).
+  EXPECT_TRUE(advises(r, "The LiDAR finds the INS poses off for "));
+  EXPECT_FALSE(advises(r, "The INS states a degraded solution"));
   const ExtrinsicError e = extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true);
   std::printf("wrong fix %.1f-%.1f s: %zu spans; |t| %.1f %.1f %.1f mm |rpy| %.4f %.4f %.4f deg\n",
               fix.t_begin_s - world->frame_times_s.front(), fix.t_end_s - world->frame_times_s.front(),
@@ -83,6 +94,26 @@ TEST(InsScreen, WrongFixIsFoundAndTheResultStaysWithinBounds) {
               e.drpy_deg.z());
   EXPECT_LT(e.drpy_deg.maxCoeff(), 0.03);
   EXPECT_LT(e.dt_m.head<2>().maxCoeff(), 0.01);
+}
+
+// An outage the INS reports (INS-only, coasting): left out by its own status, and the advice says
+// the INS stated it.
+TEST(InsScreen, AStatedOutageIsAdvisedAsTheInsStatedIt) {
+  sim::SimConfig sc;
+  sc.seed = 5;
+  sc.azimuth_step_deg = 1.0;
+  sc.duration_s = 60.0;
+  sc.ins_error.outages = 1;
+  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
+  const Dataset data = sim::world_dataset(world);
+  PipelineConfig config;
+  config.repeatability.segments = 0;
+  config.moving.enabled = false;
+  const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
+  bool stated = false;
+  for (const TimeSpan& s : r.excluded) stated = stated || s.source == SpanSource::kInsStatus;
+  EXPECT_TRUE(stated);
+  EXPECT_TRUE(advises(r, "The INS states a degraded solution for "));
 }
 
 }  // namespace

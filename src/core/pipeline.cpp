@@ -134,12 +134,20 @@ void carry_tz_uncertainty(const FrameStore& store, const std::vector<std::size_t
 }
 
 // The INS looks wrong: stretches left out, segments that disagree, a correction the drive needed.
+// What the INS states about itself is a fact; what the LiDAR finds may also be a place it saw too
+// little of (a frame sliding along a street it alone saw), so that advice says both.
 void add_ins_advice(const CalibrationResult& r, std::vector<std::string>& advice) {
-  double left_out_s = 0.0;
-  for (const TimeSpan& span : r.excluded) left_out_s += span.end_s - span.begin_s;
-  if (left_out_s > 0.0)
-    advice.push_back(fmt::format("The INS looks wrong for {:.1f} s of the drive ({} stretches, left out): check the INS's "
-                                 "RTK status (fixed, not float) and its antenna.", left_out_s, r.excluded.size()));
+  std::vector<TimeSpan> stated, found;
+  for (const TimeSpan& span : r.excluded) (span.source == SpanSource::kInsStatus ? stated : found).push_back(span);
+  if (!stated.empty())
+    advice.push_back(fmt::format("The INS states a degraded solution for {:.1f} s of the drive ({} stretches, left out): "
+                                 "check its RTK status (fixed, not float) and its antenna.",
+                                 spans_duration_s(stated), stated.size()));
+  if (!found.empty())
+    advice.push_back(fmt::format("The LiDAR finds the INS poses off for {:.1f} s of the drive ({} stretches, left out): "
+                                 "the INS may have jumped there (check its RTK status); with RTK fixed throughout, the "
+                                 "LiDAR saw too little there to place the frames.",
+                                 spans_duration_s(found), found.size()));
   if (!r.repeatability.warning.empty() && r.repeatability.segments_ok >= 2)
     advice.push_back("Parts of the drive disagree on the extrinsic more than expected: check the INS's RTK status, "
                      "moving objects and the mount; the stddev includes the disagreement.");
