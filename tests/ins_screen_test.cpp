@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -65,20 +66,34 @@ TEST(InsScreen, ADriveThatIsFloatThroughoutIsNotLeftOut) {
   EXPECT_EQ(spans[0].kind, SpanKind::kInsOnly);
 }
 
-TEST(InsScreen, WrongFixIsFoundAndTheResultStaysWithinBounds) {
+// A 60 s figure-8 (1 deg azimuth step) of this seed with INS events, calibrated without the
+// segments and the moving-points mask (tests/moving_points_test.cpp).
+struct ScreenedDrive {
+  std::shared_ptr<const sim::World> world;
+  CalibrationResult r;
+};
+ScreenedDrive calibrate_drive(std::uint64_t seed, const sim::InsErrorConfig& ins_error) {
   sim::SimConfig sc;
-  sc.seed = 4;
+  sc.seed = seed;
   sc.azimuth_step_deg = 1.0;
   sc.duration_s = 60.0;
-  sc.ins_error.wrong_fixes = 1;
-  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
-  ASSERT_EQ(world->ins_events.size(), 1u);
-  const sim::InsEvent& fix = world->ins_events.front();
-  const Dataset data = sim::world_dataset(world);
+  sc.ins_error = ins_error;
+  ScreenedDrive out;
+  out.world = std::make_shared<const sim::World>(sim::build_world(sc));
+  const Dataset data = sim::world_dataset(out.world);
   PipelineConfig config;
   config.repeatability.segments = 0;
-  config.moving.enabled = false;  // tests/moving_points_test.cpp
-  const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
+  config.moving.enabled = false;
+  out.r = run_calibration(make_frame_store(data, config), config);
+  return out;
+}
+
+TEST(InsScreen, WrongFixIsFoundAndTheResultStaysWithinBounds) {
+  sim::InsErrorConfig ins_error;
+  ins_error.wrong_fixes = 1;
+  const auto [world, r] = calibrate_drive(4, ins_error);
+  ASSERT_EQ(world->ins_events.size(), 1u);
+  const sim::InsEvent& fix = world->ins_events.front();
   // The INS reports the wrong fix as a good RTK fix: only the LiDAR checks can find it.
   EXPECT_GE(covered_s(r.excluded, fix.t_begin_s, fix.t_end_s), 0.8 * (fix.t_end_s - fix.t_begin_s));
   EXPECT_LT(spans_duration_s(r.excluded) - covered_s(r.excluded, fix.t_begin_s - 2.5, fix.t_end_s + 2.5), 3.0)
@@ -99,17 +114,9 @@ TEST(InsScreen, WrongFixIsFoundAndTheResultStaysWithinBounds) {
 // An outage the INS reports (INS-only, coasting): left out by its own status, and the advice says
 // the INS stated it.
 TEST(InsScreen, AStatedOutageIsAdvisedAsTheInsStatedIt) {
-  sim::SimConfig sc;
-  sc.seed = 5;
-  sc.azimuth_step_deg = 1.0;
-  sc.duration_s = 60.0;
-  sc.ins_error.outages = 1;
-  const auto world = std::make_shared<const sim::World>(sim::build_world(sc));
-  const Dataset data = sim::world_dataset(world);
-  PipelineConfig config;
-  config.repeatability.segments = 0;
-  config.moving.enabled = false;
-  const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
+  sim::InsErrorConfig ins_error;
+  ins_error.outages = 1;
+  const CalibrationResult r = calibrate_drive(5, ins_error).r;
   bool stated = false;
   for (const TimeSpan& s : r.excluded) stated = stated || s.source == SpanSource::kInsStatus;
   EXPECT_TRUE(stated);
