@@ -52,7 +52,9 @@ TEST(CheckDrift, ALeverArmTheInsDriftHidesIsNotCalledOk) {
   EXPECT_NE(ty.verdict, DofVerdictKind::kOk) << ty.why;  // the truth is 20 mm, the tolerance's edge
   EXPECT_LT(std::abs(ty.correction - 0.02), 3.0 * ty.stddev) << ty.why;
   EXPECT_GT(run.result->ins_drift_stddev[1], 0.002);
-  if (ty.verdict == DofVerdictKind::kNotObservable) EXPECT_NE(ty.why.find("INS's drift"), std::string::npos) << ty.why;
+  if (ty.verdict == DofVerdictKind::kNotObservable) {
+    EXPECT_NE(ty.why.find("INS's drift"), std::string::npos) << ty.why;
+  }
   EXPECT_EQ(run.findings.dofs[4].verdict, DofVerdictKind::kDrifted) << run.findings.dofs[4].why;  // the pitch knock
   EXPECT_EQ(run.findings.verdict, CheckVerdict::kRecalibrate);
 }

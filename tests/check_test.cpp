@@ -187,7 +187,9 @@ TEST(CheckStretches, PicksTheTurnsBothWaysWithinTheBudget) {
   bool left = false, right = false, stop = false;
   for (std::size_t i = 0; i < used.size(); ++i) {
     total += used[i].end_s - used[i].begin_s;
-    if (i > 0) EXPECT_GT(used[i].begin_s, used[i - 1].end_s);
+    if (i > 0) {
+      EXPECT_GT(used[i].begin_s, used[i - 1].end_s);
+    }
     const double a = used[i].begin_s - 1.7e9, b = used[i].end_s - 1.7e9;
     if (a <= 300 && b >= 310) left = used[i].why.find("left") != std::string::npos;
     if (a <= 900 && b >= 910) right = used[i].why.find("right") != std::string::npos;

@@ -59,7 +59,9 @@ TEST(DofStatus, DeterminedStddevAndSentencesAgreeOnRandomEvidence) {
     const DofStatusResult s = decide_dof_status(e);
     expect_consistent(s);
     for (int i = 0; i < 6; ++i)
-      if (s.dofs[static_cast<std::size_t>(i)].determined) EXPECT_EQ(s.dofs[static_cast<std::size_t>(i)].stddev, e.stddev[i]);
+      if (s.dofs[static_cast<std::size_t>(i)].determined) {
+        EXPECT_EQ(s.dofs[static_cast<std::size_t>(i)].stddev, e.stddev[i]);
+      }
   }
 }
 

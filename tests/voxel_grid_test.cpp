@@ -35,7 +35,7 @@ TEST(VoxelGrid, DownsampleKeepsTheFirstPointPerVoxelInInputOrder) {
 // Through many doublings, with keys that collide in the low bits (neighbouring cells), the flat
 // map holds what std::unordered_map holds.
 // Grouping by voxel is sorting (key, index) pairs: on a compact cloud (the counting sort over its
-// box) and on one spread far wider than it has points (the comparison sort).
+// box) and on one spread far wider than it has points (the radix sort over its box's bits).
 TEST(VoxelGrid, GroupsAreSortedKeyIndexPairs) {
   std::mt19937 rng(7);
   for (const float spread_m : {30.0f, 30000.0f}) {
@@ -54,7 +54,9 @@ TEST(VoxelGrid, GroupsAreSortedKeyIndexPairs) {
     ASSERT_EQ(groups.size(), runs) << spread_m;
     for (std::size_t k = 0; k < groups.size(); ++k) {
       EXPECT_EQ(sorted[groups.begin[k]].first, sorted[groups.begin[k + 1] - 1].first);
-      if (k > 0) EXPECT_NE(sorted[groups.begin[k]].first, sorted[groups.begin[k] - 1].first);
+      if (k > 0) {
+        EXPECT_NE(sorted[groups.begin[k]].first, sorted[groups.begin[k] - 1].first);
+      }
     }
   }
 }

@@ -149,24 +149,19 @@ class FrameCells {
       add(evidence_.hit, voxel_key(v));
     }
   }
-  /// A ray sample at p: its evidence voxel is free (when p is judged). The same as cell() then
-  /// mark_free(), without a branch on whether p is judged: samples near the ground go either way
-  /// at random, and that branch was often mispredicted.
-  void mark_free_sample(const Vec3f& p) {
-    const std::int64_t gx = floor_int(p.x() * inv_cell_) - gx0_, gy = floor_int(p.y() * inv_cell_) - gy0_;
-    const std::int64_t ix = floor_int(p.x() * inv_voxel_) - x0_, iy = floor_int(p.y() * inv_voxel_) - y0_;
-    if (static_cast<std::uint64_t>(gx) >= static_cast<std::uint64_t>(gw_) ||
-        static_cast<std::uint64_t>(gy) >= static_cast<std::uint64_t>(gd_) ||
-        static_cast<std::uint64_t>(ix) >= static_cast<std::uint64_t>(w_) ||
-        static_cast<std::uint64_t>(iy) >= static_cast<std::uint64_t>(d_)) {
-      return mark_free_outside(p);  // rounding only: every sample lies in the box
+  /// The samples of a ray from o, one per voxel length (`step` of the ray), up to free_m from o:
+  /// their evidence voxels are free where judged. The same as cell() then mark_free() per sample.
+  /// The samples inside the box run in a loop without calls (a call there spilled the loop's
+  /// floats to the stack, whose reloads waited on the bitset's stores) and without a branch on
+  /// whether a sample is judged (samples near the ground go either way at random, and that
+  /// branch was often mispredicted); a sample outside it, which rounding alone produces, stops
+  /// that loop for the hash sets.
+  void mark_free_ray(const Vec3f& o, const Vec3f& ray, float step, double free_m) {
+    const float length = ray.norm();
+    for (float s = step; s * length < free_m; s += step) {
+      s = mark_free_in_box(o, ray, s, step, length, free_m);
+      if (s * length < free_m) mark_free_outside(Vec3f(o.x() + s * ray.x(), o.y() + s * ray.y(), o.z() + s * ray.z()));
     }
-    const double h = p.z() - ground_[static_cast<std::size_t>(gy * gw_ + gx)] - c_.ground_clearance_m;  // NaN: no ground
-    const bool judged = (h >= 0.0) & (h < c_.max_height_m - c_.ground_clearance_m);
-    const std::int64_t iz = floor_int((judged ? h : 0.0) * inv_voxel_);
-    if (iz >= h_) return mark_free_outside(p);
-    const std::int64_t bit = (iz * d_ + iy) * w_ + ix;
-    free_[static_cast<std::size_t>(bit >> 6)] |= std::uint64_t{judged} << (bit & 63);
   }
   /// A voxel both hit and crossed is hit: evidence() leaves the box's hit voxels out of its free ones.
   void mark_free(const VoxelCell& v, std::int64_t bit) {
@@ -187,6 +182,32 @@ class FrameCells {
   }
 
  private:
+  /// mark_free_ray's samples from s on while they lie in the box: the first one outside, or the
+  /// end of the ray.
+  float mark_free_in_box(const Vec3f& o, const Vec3f& ray, float s, float step, float length, double free_m) {
+    const double inv_cell = inv_cell_, inv_voxel = inv_voxel_, clearance = c_.ground_clearance_m;
+    const double top = c_.max_height_m - c_.ground_clearance_m;
+    const std::int64_t gx0 = gx0_, gy0 = gy0_, gw = gw_, gd = gd_, x0 = x0_, y0 = y0_, w = w_, d = d_, h = h_;
+    const float* ground = ground_.data();
+    std::uint64_t* free = free_.data();
+    for (; s * length < free_m; s += step) {
+      const float px = o.x() + s * ray.x(), py = o.y() + s * ray.y(), pz = o.z() + s * ray.z();
+      const std::int64_t gx = floor_int(px * inv_cell) - gx0, gy = floor_int(py * inv_cell) - gy0;
+      const std::int64_t ix = floor_int(px * inv_voxel) - x0, iy = floor_int(py * inv_voxel) - y0;
+      if (static_cast<std::uint64_t>(gx) >= static_cast<std::uint64_t>(gw) ||
+          static_cast<std::uint64_t>(gy) >= static_cast<std::uint64_t>(gd) ||
+          static_cast<std::uint64_t>(ix) >= static_cast<std::uint64_t>(w) ||
+          static_cast<std::uint64_t>(iy) >= static_cast<std::uint64_t>(d))
+        return s;
+      const double z = pz - ground[gy * gw + gx] - clearance;  // NaN: no ground
+      const bool judged = (z >= 0.0) & (z < top);
+      const std::int64_t iz = floor_int((judged ? z : 0.0) * inv_voxel);
+      if (iz >= h) return s;
+      const std::int64_t bit = (iz * d + iy) * w + ix;
+      free[bit >> 6] |= std::uint64_t{judged} << (bit & 63);
+    }
+    return s;
+  }
   void mark_free_outside(const Vec3f& p) {
     VoxelCell v;
     std::int64_t bit = -1;
@@ -233,7 +254,7 @@ FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& gro
     const Vec3f ray = p - o;
     const double free_m = ray.norm() - c.end_margin_m;
     const float step = static_cast<float>(c.voxel_m / std::max(ray.norm(), 1e-3f));  // one sample per voxel length
-    for (float s = step; s * ray.norm() < free_m; s += step) cells.mark_free_sample(o + s * ray);
+    cells.mark_free_ray(o, ray, step, free_m);
   }
   return std::move(cells).evidence();
 }

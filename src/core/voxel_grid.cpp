@@ -2,10 +2,11 @@
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <bit>
+#include <utility>
 #include <unordered_map>
 
 namespace insalign {
@@ -121,15 +122,37 @@ VoxelGroups group_by_voxel(std::span<const Vec3f> points, double voxel_m) {
     for (std::size_t i = 0; i < n; ++i) out.order[start[dense[i]]++] = static_cast<std::uint32_t>(i);
     return out;
   }
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> keyed(n);
+  // A box too big to count over (a stitched map at centimetre voxels): a least-significant-digit
+  // radix sort of the points' box indices, stable, so the same groups in the same order; a few
+  // linear passes over the bits the box needs cost less than comparing (key, index) pairs.
+  struct Keyed {
+    std::uint64_t cell;
+    std::uint32_t index;
+  };
+  std::vector<Keyed> keyed(n), swap(n);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) keyed[i] = {voxel_key(points[i], inv), static_cast<std::uint32_t>(i)};
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const VoxelCell c = voxel_cell(points[i], inv);
+      const auto cell = static_cast<std::uint64_t>(((c.x - lo.x) * d + (c.y - lo.y)) * h + (c.z - lo.z));
+      keyed[i] = {cell, static_cast<std::uint32_t>(i)};
+    }
   });
-  tbb::parallel_sort(keyed.begin(), keyed.end());
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
+  const int bits = std::bit_width(static_cast<std::uint64_t>(w) * static_cast<std::uint64_t>(d) * static_cast<std::uint64_t>(h) - 1);
+  std::vector<std::size_t> start(kDigits);
+  for (int shift = 0; shift < bits; shift += kDigitBits) {
+    std::fill(start.begin(), start.end(), 0);
+    for (const Keyed& k : keyed) ++start[(k.cell >> shift) & (kDigits - 1)];
+    std::size_t sum = 0;
+    for (std::size_t& s : start) sum += std::exchange(s, sum);
+    for (const Keyed& k : keyed) swap[start[(k.cell >> shift) & (kDigits - 1)]++] = k;
+    keyed.swap(swap);
+  }
   out.begin.clear();
   for (std::size_t i = 0; i < n; ++i) {
-    if (i == 0 || keyed[i].first != keyed[i - 1].first) out.begin.push_back(i);
-    out.order[i] = keyed[i].second;
+    if (i == 0 || keyed[i].cell != keyed[i - 1].cell) out.begin.push_back(i);
+    out.order[i] = keyed[i].index;
   }
   out.begin.push_back(n);
   return out;
