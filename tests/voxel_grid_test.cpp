@@ -35,10 +35,10 @@ TEST(VoxelGrid, DownsampleKeepsTheFirstPointPerVoxelInInputOrder) {
 // Through many doublings, with keys that collide in the low bits (neighbouring cells), the flat
 // map holds what std::unordered_map holds.
 // Grouping by voxel is sorting (key, index) pairs: on a compact cloud (the counting sort over its
-// box) and on one spread far wider than it has points (the radix sort over its box's bits).
+// box) and on ones spread far wider than it has points (the radix sort over its box's bits).
 TEST(VoxelGrid, GroupsAreSortedKeyIndexPairs) {
   std::mt19937 rng(7);
-  for (const float spread_m : {30.0f, 30000.0f}) {
+  for (const float spread_m : {30.0f, 300.0f, 30000.0f}) {  // counting sort, 32-bit and 64-bit radix
     std::uniform_real_distribution<float> u(-spread_m, spread_m);
     std::vector<Vec3f> pts(20000);
     for (Vec3f& p : pts) p = Vec3f(u(rng), u(rng), 0.01f * u(rng));

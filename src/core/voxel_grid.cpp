@@ -43,6 +43,39 @@ std::vector<std::uint32_t> downsample_in_buckets(std::span<const Vec3f> points, 
   return out;
 }
 
+// Groups by a least-significant-digit radix sort of the points' box indices (box_index(i), below
+// 2^bits): stable, so the same groups in the same order as sorting (key, index) pairs; a few
+// linear passes over the bits the box needs cost less than comparing pairs. Cell: the narrowest
+// word the box fits (8 bytes a point with 32-bit cells, as the pairs took).
+template <class Cell, class BoxIndex>
+void radix_groups(std::size_t n, int bits, const BoxIndex& box_index, VoxelGroups& out) {
+  struct Keyed {
+    Cell cell;
+    std::uint32_t index;
+  };
+  std::vector<Keyed> keyed(n), swap(n);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) keyed[i] = {static_cast<Cell>(box_index(i)), static_cast<std::uint32_t>(i)};
+  });
+  constexpr int kDigitBits = 11;
+  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
+  std::vector<std::size_t> start(kDigits);
+  for (int shift = 0; shift < bits; shift += kDigitBits) {
+    std::fill(start.begin(), start.end(), 0);
+    for (const Keyed& k : keyed) ++start[(k.cell >> shift) & (kDigits - 1)];
+    std::size_t sum = 0;
+    for (std::size_t& s : start) sum += std::exchange(s, sum);
+    for (const Keyed& k : keyed) swap[start[(k.cell >> shift) & (kDigits - 1)]++] = k;
+    keyed.swap(swap);
+  }
+  out.begin.clear();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i == 0 || keyed[i].cell != keyed[i - 1].cell) out.begin.push_back(i);
+    out.order[i] = keyed[i].index;
+  }
+  out.begin.push_back(n);
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> voxel_downsample_indices(std::span<const Vec3f> points, double voxel_m) {
@@ -122,39 +155,14 @@ VoxelGroups group_by_voxel(std::span<const Vec3f> points, double voxel_m) {
     for (std::size_t i = 0; i < n; ++i) out.order[start[dense[i]]++] = static_cast<std::uint32_t>(i);
     return out;
   }
-  // A box too big to count over (a stitched map at centimetre voxels): a least-significant-digit
-  // radix sort of the points' box indices, stable, so the same groups in the same order; a few
-  // linear passes over the bits the box needs cost less than comparing (key, index) pairs.
-  struct Keyed {
-    std::uint64_t cell;
-    std::uint32_t index;
-  };
-  std::vector<Keyed> keyed(n), swap(n);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kGrain), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const VoxelCell c = voxel_cell(points[i], inv);
-      const auto cell = static_cast<std::uint64_t>(((c.x - lo.x) * d + (c.y - lo.y)) * h + (c.z - lo.z));
-      keyed[i] = {cell, static_cast<std::uint32_t>(i)};
-    }
-  });
-  constexpr int kDigitBits = 11;
-  constexpr std::size_t kDigits = std::size_t{1} << kDigitBits;
+  // A box too big to count over (a stitched map at centimetre voxels): radix_groups.
   const int bits = std::bit_width(static_cast<std::uint64_t>(w) * static_cast<std::uint64_t>(d) * static_cast<std::uint64_t>(h) - 1);
-  std::vector<std::size_t> start(kDigits);
-  for (int shift = 0; shift < bits; shift += kDigitBits) {
-    std::fill(start.begin(), start.end(), 0);
-    for (const Keyed& k : keyed) ++start[(k.cell >> shift) & (kDigits - 1)];
-    std::size_t sum = 0;
-    for (std::size_t& s : start) sum += std::exchange(s, sum);
-    for (const Keyed& k : keyed) swap[start[(k.cell >> shift) & (kDigits - 1)]++] = k;
-    keyed.swap(swap);
-  }
-  out.begin.clear();
-  for (std::size_t i = 0; i < n; ++i) {
-    if (i == 0 || keyed[i].cell != keyed[i - 1].cell) out.begin.push_back(i);
-    out.order[i] = keyed[i].index;
-  }
-  out.begin.push_back(n);
+  const auto box_index = [&](std::size_t i) {
+    const VoxelCell c = voxel_cell(points[i], inv);
+    return static_cast<std::uint64_t>(((c.x - lo.x) * d + (c.y - lo.y)) * h + (c.z - lo.z));
+  };
+  if (bits <= 32) radix_groups<std::uint32_t>(n, bits, box_index, out);
+  else radix_groups<std::uint64_t>(n, bits, box_index, out);
   return out;
 }
 
