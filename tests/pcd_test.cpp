@@ -12,6 +12,7 @@
 #include <random>
 
 #include "core/errors.hpp"
+#include "files/read_file.hpp"
 
 namespace insalign::io {
 namespace {
@@ -236,6 +237,32 @@ TEST(Pcd, HeaderOnlyRead) {
   EXPECT_EQ(h.header_bytes + 100 * h.point_bytes, fs::file_size(dir / "h.pcd"));
   ASSERT_NE(h.find("ring"), nullptr);
   EXPECT_EQ(h.find("ring")->offset, 16u);
+  fs::remove_all(dir);
+}
+
+// The header is read from the first 4 KB when it ends inside them: a header reaching past them
+// (a long comment) reads whole, also where the 4 KB end inside "DATA binary_compressed".
+TEST(Pcd, HeaderPastTheFirstReadIsReadWhole) {
+  const fs::path dir = temp_dir("longhdr");
+  const Sweep in = random_sweep(50, 4);
+  write_pcd(dir / "src.pcd", in, PcdEncoding::kBinaryCompressed);
+  const std::string bytes = read_file(dir / "src.pcd");
+  const std::size_t data_line = bytes.find("\nDATA binary_compressed\n") + 1;
+  ASSERT_NE(data_line, std::string::npos + 1);
+  for (std::size_t cut = std::string("DATA ").size(); cut <= std::string("DATA binary_compressed\n").size(); ++cut) {
+    // A comment line ("# " + x's + newline) after the first line moves the DATA line to cut
+    // bytes before byte 4096.
+    const std::size_t first_nl = bytes.find('\n') + 1;
+    const std::size_t pad = 4096 - cut - data_line - 3;
+    const std::string padded = bytes.substr(0, first_nl) + "# " + std::string(pad, 'x') + "\n" + bytes.substr(first_nl);
+    ASSERT_EQ(padded.find("\nDATA ") + 1 + cut, 4096u);
+    std::ofstream(dir / "long.pcd", std::ios::binary) << padded;
+    const PcdHeader h = read_pcd_header(dir / "long.pcd");
+    EXPECT_EQ(h.data, "binary_compressed") << cut;
+    EXPECT_EQ(h.points, 50u) << cut;
+    EXPECT_EQ(h.header_bytes, data_line + pad + 3 + std::string("DATA binary_compressed\n").size()) << cut;
+    EXPECT_EQ(read_pcd(dir / "long.pcd").size(), 50u) << cut;
+  }
   fs::remove_all(dir);
 }
 
