@@ -183,12 +183,24 @@ TEST(GlobalInit, WrongInitIsOverriddenAndGoodInitKept) {
   const GlobalInitResult kept = initialise_extrinsic(testing::store_of(drive.data), close);
   EXPECT_EQ(kept.source, InitSource::kInit) << kept.explanation;
   EXPECT_TRUE(kept.T_ins_lidar.isApprox(close));
+  // ... and as near as the data's own start beside it (a check's installed extrinsic): stage 1
+  // skips its one-group rounds. Not where the rule's bound is tighter than the two's distance.
+  ASSERT_TRUE(kept.lever_arm_observed && kept.hand_eye_pairs_used > 0) << kept.explanation;
+  EXPECT_TRUE(kept.init_near_data) << kept.explanation;
+  EXPECT_TRUE(start_is_near(kept));
+  GlobalInitConfig strict;
+  strict.near_data_trans_m = 1e-6;
+  const GlobalInitResult far = initialise_extrinsic(testing::store_of(drive.data), close, strict);
+  EXPECT_EQ(far.source, InitSource::kInit) << far.explanation;
+  EXPECT_FALSE(far.init_near_data);
+  EXPECT_FALSE(start_is_near(far));
   // trust_init returns even a wrong init unchanged.
   GlobalInitConfig trust;
   trust.trust_init = true;
   const GlobalInitResult trusted = initialise_extrinsic(testing::store_of(drive.data), wrong[0].T_init, trust);
   EXPECT_EQ(trusted.source, InitSource::kInit);
   EXPECT_TRUE(trusted.T_ins_lidar.isApprox(wrong[0].T_init));
+  EXPECT_FALSE(start_is_near(trusted));  // not checked against the data: not known to be near
 }
 
 TEST(GlobalInit, StandstillIsUnobservable) {

@@ -155,6 +155,9 @@ void decide(const std::vector<InitCandidate>& cand, const std::optional<Iso3>& T
   why << " Init differs from " << cand[best].label << fmt::format(" by {:.1f} deg and {:.2f} m", diff.angle_deg, diff.dt_norm_m);
   result.T_ins_lidar = *T_init;
   result.source = InitSource::kInit;
+  result.init_near_data = cand[best].label == "data" && diff.angle_deg < config.near_data_rot_deg &&
+                          (init.T_ins_lidar.translation() - cand[best].T_ins_lidar.translation()).head<2>().norm() <
+                              config.near_data_trans_m;
   if (same_basin && ratio > config.override_score_ratio) {
     result.T_ins_lidar = cand[best].T_ins_lidar;
     result.T_ins_lidar.translation().z() = T_init->translation().z();  // the data's z is a guess without fiducials
@@ -203,7 +206,9 @@ GlobalInitResult cannot_start(const std::optional<Iso3>& T_init, double time_off
 }  // namespace
 
 bool start_is_near(const GlobalInitResult& init) {
-  return init.start_candidate == "data" && init.hand_eye_pairs_used > 0 && init.lever_arm_observed;
+  const bool data_near = init.hand_eye_pairs_used > 0 && init.lever_arm_observed;
+  const bool init_kept = init.source == InitSource::kInit && init.start_candidate == "init";
+  return data_near && (init.start_candidate == "data" || (init_kept && init.init_near_data));
 }
 
 GlobalInitResult initialise_extrinsic(const FrameStore& store, const std::optional<Iso3>& T_ins_lidar_init,

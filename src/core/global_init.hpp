@@ -43,6 +43,11 @@ struct GlobalInitConfig {
   double override_score_ratio = 1.05;
   double same_basin_rot_deg = 30.0;    ///< closer candidates share stage 1's basin (~20 deg, with margin)...
   double same_basin_trans_m = 1.0;     ///< ...if also this close in translation
+  /// An init kept (confirmed by the data) this close to the data's own near start is as near: a
+  /// check's installed extrinsic, a previous result given as --init (stage 1 then skips its
+  /// one-group rounds, as from the data's start). Horizontal translation: the data's tz is a guess.
+  double near_data_rot_deg = 1.0;
+  double near_data_trans_m = 0.1;
   bool trust_init = false;             ///< true: return the init unchanged, no checks
 };
 
@@ -59,6 +64,8 @@ void visit_config(V& v, GlobalInitConfig& c) {
   v("override_score_ratio", c.override_score_ratio, "the data overrides --init when the init scores this factor worse");
   v("same_basin_rot_deg", c.same_basin_rot_deg, "candidates closer than this share a basin, deg");
   v("same_basin_trans_m", c.same_basin_trans_m, "...if also this close in translation, m");
+  v("near_data_rot_deg", c.near_data_rot_deg, "an init kept this close to the data's near start is near too, deg");
+  v("near_data_trans_m", c.near_data_trans_m, "...if also this close horizontally, m");
 }
 
 /// Where the start for stage 1 came from.
@@ -94,6 +101,8 @@ struct GlobalInitResult {
   /// --ins-height-m, or the built-in guess (ins_height_guess_m).
   TzSource tz_source = TzSource::kInit;
   std::string start_candidate = "init";  ///< the candidate the start is (its label: "data", "data-yaw+90", ...)
+  /// The init was kept within near_data_rot_deg / near_data_trans_m of the "data" candidate.
+  bool init_near_data = false;
   std::string explanation;              ///< why: the steps and the scores
   std::vector<InitCandidate> candidates;
   // Diagnostics.
@@ -109,8 +118,9 @@ struct GlobalInitResult {
 };
 
 /// The start is the data's planar hand-eye solution with the lever arm observed (a turning drive):
-/// within 0.2 deg and 3.5 cm on bench/init_accuracy's drives, far inside stage 1's basin (~20 deg).
-/// Not so for an init kept as given, a hand-eye solve that failed or a drive without turns.
+/// within 0.2 deg and 3.5 cm on bench/init_accuracy's drives, far inside stage 1's basin (~20 deg);
+/// or an init kept within near_data_rot_deg / near_data_trans_m of that solution. Not so for an
+/// init farther from it, a hand-eye solve that failed or a drive without turns.
 bool start_is_near(const GlobalInitResult& init);
 
 /// Never throws for degenerate data: without an init, outcome kUndetermined says why the data

@@ -90,7 +90,7 @@ void visit_config(V& v, RoughConfig& c) {
   v("always_fix_tz", c.always_fix_tz, "true: keep tz at its initial value even when the drive determines it");
   v("deskew", c.deskew, "use per-point times when the sweeps have them");
   v("near_start_skips_single_group_rounds", c.near_start_skips_single_group_rounds,
-    "a start from the data's hand-eye solve (lever arm observed) skips the first rounds of one-group windows");
+    "a start from the data's hand-eye solve (lever arm observed), or an init kept within init.near_data_* of it, skips the first rounds of one-group windows");
   v("stage2_skips_last_round", c.stage2_skips_last_round,
     "when stage 2 follows, stage 1 leaves out its last (finest) round: stage 2 starts from the round before");
   v.section("observability", c.observability);
