@@ -10,6 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <numeric>
+#include <random>
+#include <tuple>
 #include <sstream>
 
 #include "browser_cdp.hpp"
@@ -114,6 +117,52 @@ TEST(ViewerEncode, PositionsFramesAndClassesDecodeBack) {
       }
   EXPECT_NE(out.html.find("1000 of 3000 points"), std::string::npos);
   EXPECT_NE(out.html.find("src=\"dir/viewer_data.js\""), std::string::npos);
+}
+
+// Points of two LiDARs, three frames and three classes in random order come out grouped by
+// (LiDAR, frame, class), in their order within a group: one run per group.
+TEST(ViewerEncode, PointsInAnyOrderAreGroupedIntoRuns) {
+  io::ViewerScene s;
+  s.extrinsic_labels = {"a"};
+  s.p_world.resize(1);
+  s.frames = {{"f0", 10.0}, {"f1", 10.1}, {"f2", 10.2}};
+  s.lidar_names = {"roof", "left"};
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> pick(0, 1 << 20);
+  const io::ViewerPointClass classes[] = {io::ViewerPointClass::kUsed, io::ViewerPointClass::kMoving,
+                                          io::ViewerPointClass::kOutside};
+  for (int i = 0; i < 3000; ++i) {
+    s.p_world[0].emplace_back(static_cast<float>(i) * 0.01f, 0.f, 0.f);  // x names the point
+    s.lidar.push_back(static_cast<std::uint8_t>(pick(rng) % 2));
+    s.frame.push_back(static_cast<std::uint32_t>(pick(rng) % 3));
+    s.point_class.push_back(classes[pick(rng) % 3]);
+  }
+  s.points_total = s.size();
+  std::vector<std::uint32_t> order(s.size());
+  std::iota(order.begin(), order.end(), 0u);
+  const auto key = [&](std::uint32_t i) { return std::tuple(s.lidar[i], s.frame[i], static_cast<int>(s.point_class[i])); };
+  std::stable_sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) { return key(a) < key(b); });
+  json runs = json::array();
+  for (std::size_t k = 0; k < order.size();) {
+    std::size_t n = 0;
+    const auto first = key(order[k]);
+    for (; k < order.size() && key(order[k]) == first; ++k) ++n;
+    runs.push_back({std::get<1>(first), std::get<0>(first), std::get<2>(first), n});
+  }
+  const io::ViewerOutput out = io::encode_viewer(s, "dir");
+  const std::string& js = out.files[0].second;
+  const std::string prefix = "window.insalignViewerData = ";
+  const json j = json::parse(js.substr(prefix.size(), js.rfind(';') - prefix.size()));
+  EXPECT_EQ(j["meta"]["runs"], runs);
+  EXPECT_EQ(j["meta"]["runs"].size(), 2u * 3 * 3);
+  const std::string bytes = testing::decode_base64(j["points"].get<std::string>());
+  ASSERT_EQ(bytes.size(), s.size() * 6);
+  const auto& box = j["meta"]["box"];
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const int q = static_cast<unsigned char>(bytes[k * 6]) | static_cast<unsigned char>(bytes[k * 6 + 1]) << 8;
+    const double x = box["min_m"][0].get<double>() + q * box["scale_m"][0].get<double>();
+    ASSERT_NEAR(x, s.p_world[0][order[k]].x(), 0.51 * box["scale_m"][0].get<double>() + 1e-5) << k;
+  }
 }
 
 // ---- check.html's view --------------------------------------------------------------------------
