@@ -114,10 +114,11 @@ TEST(TrajectoryDefault, RtkFixedDriveGivesOffsAnswer) {
 }
 
 // A one-way city loop with a drifting INS (bench/check_accuracy's drive 32: a Pandar64 at the left
-// mirror): corrected jointly with the trajectory, tx came out 66 mm off at a stated 8 mm; the
-// default keeps stage 2's lever arm and time offset and corrects the rotation only, and their
-// stddev carries the drift the correction measured.
-TEST(TrajectoryDefault, KeepsStageTwosLeverArmOnAOneWayLoop) {
+// mirror). The lever arm estimated with the trajectory came out 61.5 mm off at a stated 8 mm while
+// the data's errors decided it along the direction the knots mimic it (R_world_ins(t) l); the
+// prior alone decides it there now. The time offset stays stage 2's and carries the drift the
+// correction measured.
+TEST(TrajectoryDefault, EstimatesTheLeverArmOnAOneWayLoopWithinItsStddev) {
   sim::SimConfig sc;
   sc.seed = 1032;
   sc.trajectory = sim::TrajectoryKind::kCityLoop;
@@ -131,23 +132,24 @@ TEST(TrajectoryDefault, KeepsStageTwosLeverArmOnAOneWayLoop) {
   const Dataset data = sim::world_dataset(world);
   PipelineConfig config;
   const TrajectoryCorrectionConfig defaults;
-  ASSERT_TRUE(defaults.hold_lever_arm);
+  ASSERT_FALSE(defaults.hold_lever_arm);
   const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
   ASSERT_TRUE(r.trajectory.applied) << r.trajectory.decision;  // the drift is seen and corrected
   ASSERT_TRUE(r.refine.has_value());
-  EXPECT_TRUE(r.T_ins_lidar.translation().head<2>().isApprox(r.refine->T_ins_lidar.translation().head<2>(), 1e-12));
   const Vec3 err = r.T_ins_lidar.translation() - world->T_ins_lidar_true.translation();
+  const Vec3 err_stage2 = r.refine->T_ins_lidar.translation() - world->T_ins_lidar_true.translation();
+  std::printf("lever arm error: joint x %.1f y %.1f mm (stated %.1f %.1f), stage 2 x %.1f y %.1f mm\n", 1e3 * err.x(),
+              1e3 * err.y(), 1e3 * r.stddev[0], 1e3 * r.stddev[1], 1e3 * err_stage2.x(), 1e3 * err_stage2.y());
   for (int i : {0, 1}) {
-    EXPECT_LT(std::abs(err[i]), 0.02) << "axis " << i;  // jointly: 61.5 mm
+    EXPECT_LT(std::abs(err[i]), 0.02) << "axis " << i;  // the data deciding: 61.5 mm
     EXPECT_LT(std::abs(err[i]), 3.0 * r.stddev[i]) << "axis " << i << ", stated " << r.stddev[i];
-    // The drift the correction measured is in the held lever arm's stddev.
-    EXPECT_GT(r.ins_drift_stddev[i], 0.001) << "axis " << i;
-    EXPECT_GE(r.stddev[i], r.ins_drift_stddev[i]) << "axis " << i;
+    EXPECT_EQ(r.ins_drift_stddev[i], 0.0) << "axis " << i << ": the correction's own estimate";
   }
+  EXPECT_DOUBLE_EQ(r.time_offset_s, r.refine->time_offset_s) << "the time offset stays stage 2's";
+  EXPECT_GT(r.ins_drift_stddev[6], 0.0) << "and carries the drift";
   EXPECT_EQ(r.ins_drift_stddev.segment<3>(3), Vec3::Zero()) << "the rotation is the correction's own estimate";
   EXPECT_LT(extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true).angle_deg, 0.05);
 }
-
 
 // A drifting INS whose correction is estimated but too weak to apply (here: the apply threshold
 // raised beyond it): the answer is `off`'s, stage 2 on the INS poses as exact, so every DOF's

@@ -353,29 +353,59 @@ double stated_variance(const std::vector<InsQuality>& quality, double t_s, bool 
 
 // Adds the random-walk prior, the gauge and the fixed parameters (all in units of the data
 // term scaled by 1/data_var) to the normal equations.
-// The map rotated about the world vertical by d is as crisp as before, and for a level car that
-// rotation is exactly an extrinsic yaw d plus the position correction d z x p(t) (p the INS
-// position). Only the car's roll and pitch break the tie, weakly, and through exactly what the
-// model gets wrong (attitude noise, plane fits): letting the data decide moved yaw 0.057 deg on an
-// RTK-fixed drive. So the data's information along that direction is removed (H <- P H P with P
-// projecting it out) and the random-walk prior alone decides how much of it the drift holds.
-void remove_yaw_mode(const Layout& layout, const std::vector<Vec3>& knot_p_world, MatX& H, VecX& g) {
+// Directions of the parameters along which the map does not change, only the knots do. The data
+// say nothing along them but what the model gets wrong (attitude noise, plane fits, the knots'
+// straight lines between poses), and that much, counted as information, decided the answer:
+// - the map rotated about the world vertical by d is exactly an extrinsic yaw d plus the position
+//   correction d z x p(t) (p the INS position) for a level car; letting the data decide moved yaw
+//   0.057 deg on an RTK-fixed drive;
+// - a horizontal lever-arm change l (INS frame) is exactly the position correction -R_world_ins(t) l;
+//   letting the data decide put tx 20-120 mm off at a stated 4-7 mm on simulated drifting drives,
+//   by 200 mm more or less with the frames picked (bench/results/honest.md).
+// Their information is removed from the data term (H <- P H P, g <- P g, P projecting the modes
+// out) and the random-walk prior alone decides how much of each the drift holds: the floor of
+// bench/yaw_floor.py, which the stated stddev then is.
+struct DataModes {
+  std::vector<VecX> u;  // one vector per mode, over the whole parameter layout
+};
+
+DataModes data_modes(const Layout& layout, const std::vector<Iso3>& knot_T_world_ins, bool lever_arm) {
   const int K = layout.knots;
   Vec3 centre = Vec3::Zero();
-  for (const Vec3& p : knot_p_world) centre += p;
+  for (const Iso3& T : knot_T_world_ins) centre += T.translation();
   centre /= static_cast<double>(std::max(1, K));
-  VecX u = VecX::Zero(layout.size());
-  u[5] = 1.0;  // yaw of the extrinsic (about the INS vertical), rad
+  DataModes modes;
+  VecX yaw = VecX::Zero(layout.size());
+  yaw[5] = 1.0;  // yaw of the extrinsic (about the INS vertical), rad
   for (int k = 0; k < K; ++k) {
-    const Vec3 m = Vec3::UnitZ().cross(knot_p_world[static_cast<std::size_t>(k)] - centre);
-    for (int i = 0; i < 3; ++i) u[layout.pos(k, i)] = m[i];
+    const Vec3 m = Vec3::UnitZ().cross(knot_T_world_ins[static_cast<std::size_t>(k)].translation() - centre);
+    for (int i = 0; i < 3; ++i) yaw[layout.pos(k, i)] = m[i];
   }
-  const double uu = u.squaredNorm();
-  const VecX Hu = H * u;
-  const double uHu = u.dot(Hu);
-  H -= (u * Hu.transpose() + Hu * u.transpose()) / uu;
-  H += (uHu / (uu * uu)) * (u * u.transpose());
-  g -= u * (u.dot(g) / uu);
+  modes.u.push_back(std::move(yaw));
+  if (!lever_arm) return modes;
+  for (int axis : {0, 1}) {
+    VecX u = VecX::Zero(layout.size());
+    u[axis] = 1.0;
+    for (int k = 0; k < K; ++k) {
+      const Vec3 m = -(knot_T_world_ins[static_cast<std::size_t>(k)].linear().col(axis));
+      for (int i = 0; i < 3; ++i) u[layout.pos(k, i)] = m[i];
+    }
+    modes.u.push_back(std::move(u));
+  }
+  return modes;
+}
+
+void remove_data_modes(const DataModes& modes, MatX& H, VecX& g) {
+  // An orthonormal basis Q of the modes, then H <- (I - Q Q^T) H (I - Q Q^T).
+  MatX U(H.rows(), static_cast<Eigen::Index>(modes.u.size()));
+  for (std::size_t j = 0; j < modes.u.size(); ++j) U.col(static_cast<Eigen::Index>(j)) = modes.u[j];
+  const Eigen::HouseholderQR<MatX> qr(U);
+  const MatX Q = qr.householderQ() * MatX::Identity(U.rows(), U.cols());
+  const MatX HQ = H * Q;
+  const MatX QtHQ = Q.transpose() * HQ;
+  H -= HQ * Q.transpose() + Q * HQ.transpose();
+  H += Q * QtHQ * Q.transpose();
+  g -= Q * (Q.transpose() * g);
 }
 
 void add_priors(const TrajectoryCorrection& s, const Layout& layout, const TrajectoryCorrectionConfig& config,
@@ -485,9 +515,10 @@ struct Solver {
     LocalPlanes planes;
     std::vector<Member> members;
     const PlaneThicknessConfig pc = plane_thickness_config(refine);
-    std::vector<Vec3> knot_p_world;
+    std::vector<Iso3> knot_T_world_ins;
     for (double t : s.t_s)
-      knot_p_world.push_back(store.poses().T_world_ins(std::clamp(t, store.poses().t_begin(), store.poses().t_end())).translation());
+      knot_T_world_ins.push_back(store.poses().T_world_ins(std::clamp(t, store.poses().t_begin(), store.poses().t_end())));
+    const DataModes modes = data_modes(layout, knot_T_world_ins, !refine.held[0] && !refine.held[1]);
     for (int it = 0; it < config.max_iterations; ++it) {
       const PoseStream poses = corrected_poses(store.poses(), s);
       place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
@@ -504,7 +535,7 @@ struct Solver {
       ne.H /= data_var;
       ne.g /= data_var;
       double prior_cost = 0.0;
-      remove_yaw_mode(layout, knot_p_world, ne.H, ne.g);
+      remove_data_modes(modes, ne.H, ne.g);
       add_priors(s, layout, config, store.data().ins_quality, refine, ne.H, ne.g, prior_cost);
       VecX dx = ne.H.ldlt().solve(-ne.g);
       // Trust region: planes re-fitted from a smeared map only point the way for small steps.

@@ -71,11 +71,11 @@ struct TrajectoryCorrectionConfig {
   /// stated standard deviations (Dataset::ins_quality) add their change between knots.
   double drift_m_per_sqrt_s = 0.005;
   bool estimate_heading = false;          ///< also a heading correction (about the world vertical)
-  /// The horizontal lever arm and the time offset stay at stage 2's values; the correction moves
-  /// the rotation only. A lever-arm error is a slowly turning offset (R_world_ins(t) t) that the
-  /// knots absorb wherever the heading changes slowly: jointly estimated, tx came out 21-75 mm off
-  /// on simulated city drives where stage 2 was within 9 mm (bench/check_accuracy).
-  bool hold_lever_arm = true;
+  /// Keep stage 2's horizontal lever arm (the correction then moves the rotation only). Estimated,
+  /// the lever arm is decided by the random-walk prior alone along the direction the knots mimic
+  /// it (see remove_data_modes); before that, the data's errors decided it and put tx 20-120 mm
+  /// off at a stated 4-7 mm on one-way city loops. The time offset always stays stage 2's.
+  bool hold_lever_arm = false;
   double heading_drift_deg_per_sqrt_s = 0.002;  ///< its random-walk prior
   /// Points of one plane seen from one sweep share their errors (range bias, the sweep's pose):
   /// the data term counts as this many times fewer independent points against the prior.
@@ -113,7 +113,7 @@ void visit_config(V& v, TrajectoryCorrectionConfig& c) {
   v("drift_m_per_sqrt_s", c.drift_m_per_sqrt_s, "assumed INS position random walk per axis (prior), m/sqrt(s)");
   v("estimate_heading", c.estimate_heading, "also correct the INS heading (its drive mean stays in yaw)");
   v("hold_lever_arm", c.hold_lever_arm,
-    "keep stage 2's horizontal lever arm and time offset; the correction moves the rotation only");
+    "keep stage 2's horizontal lever arm; the correction moves the rotation only");
   v("heading_drift_deg_per_sqrt_s", c.heading_drift_deg_per_sqrt_s, "assumed INS heading random walk (prior), deg/sqrt(s)");
   v("point_correlation", c.point_correlation, "points per independent observation, weighing the data against the prior");
   v("max_frames", c.max_frames, "frames spread over the drive's motion");
