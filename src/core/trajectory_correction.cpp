@@ -351,8 +351,6 @@ double stated_variance(const std::vector<InsQuality>& quality, double t_s, bool 
   return std::isfinite(sd) ? sd * sd : 0.0;
 }
 
-// Adds the random-walk prior, the gauge and the fixed parameters (all in units of the data
-// term scaled by 1/data_var) to the normal equations.
 // Directions of the parameters along which the map does not change, only the knots do. The data
 // say nothing along them but what the model gets wrong (attitude noise, plane fits, the knots'
 // straight lines between poses), and that much, counted as information, decided the answer:
@@ -369,7 +367,7 @@ struct DataModes {
   std::vector<VecX> u;  // one vector per mode, over the whole parameter layout
 };
 
-DataModes data_modes(const Layout& layout, const std::vector<Iso3>& knot_T_world_ins, bool lever_arm) {
+DataModes data_modes(const Layout& layout, const std::vector<Iso3>& knot_T_world_ins, const RefineConfig& refine) {
   const int K = layout.knots;
   Vec3 centre = Vec3::Zero();
   for (const Iso3& T : knot_T_world_ins) centre += T.translation();
@@ -382,8 +380,8 @@ DataModes data_modes(const Layout& layout, const std::vector<Iso3>& knot_T_world
     for (int i = 0; i < 3; ++i) yaw[layout.pos(k, i)] = m[i];
   }
   modes.u.push_back(std::move(yaw));
-  if (!lever_arm) return modes;
   for (int axis : {0, 1}) {
+    if (refine.held[static_cast<std::size_t>(axis)]) continue;  // not a parameter: the knots alone are seen
     VecX u = VecX::Zero(layout.size());
     u[axis] = 1.0;
     for (int k = 0; k < K; ++k) {
@@ -408,6 +406,8 @@ void remove_data_modes(const DataModes& modes, MatX& H, VecX& g) {
   g -= Q * (Q.transpose() * g);
 }
 
+// Adds the random-walk prior, the gauge and the fixed parameters (all in units of the data
+// term scaled by 1/data_var) to the normal equations.
 void add_priors(const TrajectoryCorrection& s, const Layout& layout, const TrajectoryCorrectionConfig& config,
                 const std::vector<InsQuality>& quality, const RefineConfig& refine, MatX& H, VecX& g, double& prior_cost) {
   const int K = layout.knots;
@@ -518,7 +518,7 @@ struct Solver {
     std::vector<Iso3> knot_T_world_ins;
     for (double t : s.t_s)
       knot_T_world_ins.push_back(store.poses().T_world_ins(std::clamp(t, store.poses().t_begin(), store.poses().t_end())));
-    const DataModes modes = data_modes(layout, knot_T_world_ins, !refine.held[0] && !refine.held[1]);
+    const DataModes modes = data_modes(layout, knot_T_world_ins, refine);
     for (int it = 0; it < config.max_iterations; ++it) {
       const PoseStream poses = corrected_poses(store.poses(), s);
       place_all(p, poses, s.T_ins_lidar, s.time_offset_s, p_world);
@@ -701,7 +701,8 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
   picking.max_frames = config.max_frames;
   const double margin = refine_margin_s(refine);
   std::vector<Sweep> sweeps =
-      store.thinned(refine_frames(store, picking, time_offset_start_s, margin), config.filter, /*keep_decoded=*/false);
+      store.thinned(refine_frames(store, picking, time_offset_start_s, margin, /*prefer_decoded=*/true), config.filter,
+                    /*keep_decoded=*/false);
   std::erase_if(sweeps, [&](const Sweep& sw) {
     return !sweep_covered(store.poses(), sw, time_offset_start_s, margin + kLook_s);
   });

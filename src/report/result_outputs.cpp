@@ -191,6 +191,9 @@ json trajectory_correction_json(const TrajectoryCorrection& c) {
           {"correction_rms_xyz_m", {c.correction_rms_axes_m.x(), c.correction_rms_axes_m.y(), c.correction_rms_axes_m.z()}},
           {"prior_rms_xyz_m", {c.prior_rms_axes_m.x(), c.prior_rms_axes_m.y(), c.prior_rms_axes_m.z()}},
           {"plane_thickness_rms_m", {{"ins_poses", c.cost_ins_rms_m}, {"corrected_poses", c.cost_corrected_rms_m}}},
+          {"frames_used", c.frames_used},
+          {"points_used", c.points_used},
+          {"iterations", c.iterations},
           {"knots", knots}};
 }
 
