@@ -795,13 +795,13 @@ PlaneThicknessConfig plane_thickness_config(const RefineConfig& c) {
 }
 
 std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,
-                                       double margin_s, bool prefer_decoded) {
+                                       double margin_s) {
   DriveFrames drive = drive_frames(store, time_offset_s, margin_s + kJacobianLook_s);
   if (drive.size() == 0) return {};
   // Stage 2's frames at the exact centres of their slices, not the nearest already-decoded ones:
   // stage 1's clustered groups pulled them together and cost 0.0006 deg yaw MAE over 30 seeds
   // (paper_tables, bench/RESULTS.md); the checks after stage 1 sample these frames anyway.
-  if (!prefer_decoded) drive.decoded.clear();
+  drive.decoded.clear();
   const double total = drive.motion_m.back();
   const std::size_t by_motion = static_cast<std::size_t>(total / std::max(config.min_motion_m, 1e-6)) + 1;
   const std::size_t by_spacing =

@@ -227,10 +227,9 @@ inline double refine_margin_s(const RefineConfig& config) {
 }
 
 /// Frames spread over the drive's motion whose sweeps, shifted by up to +-margin_s, the poses
-/// cover (no sweep is loaded): each at its slice's centre, or, with prefer_decoded, a frame of the
-/// slice already decoded where there is one.
+/// cover (no sweep is loaded).
 std::vector<std::size_t> refine_frames(const FrameStore& store, const RefineConfig& config, double time_offset_s,
-                                       double margin_s, bool prefer_decoded = false);
+                                       double margin_s);
 
 /// Refines T_ins_lidar (and the time offset) from a start close to the truth (stage 1 output,
 /// within about 0.5 deg and 5 cm), on the given frames (refine_frames, or a time slice of them).

@@ -701,8 +701,7 @@ TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_i
   picking.max_frames = config.max_frames;
   const double margin = refine_margin_s(refine);
   std::vector<Sweep> sweeps =
-      store.thinned(refine_frames(store, picking, time_offset_start_s, margin, /*prefer_decoded=*/true), config.filter,
-                    /*keep_decoded=*/false);
+      store.thinned(refine_frames(store, picking, time_offset_start_s, margin), config.filter, /*keep_decoded=*/false);
   std::erase_if(sweeps, [&](const Sweep& sw) {
     return !sweep_covered(store.poses(), sw, time_offset_start_s, margin + kLook_s);
   });
