@@ -135,11 +135,13 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     fmt::print(stderr,
                "seed {:>3}: perfect rpy {:.4f} {:.4f} {:.4f} xy {:.1f} {:.1f} mm | drift: INS as truth rpy {:.4f} {:.4f} "
                "{:.4f} xy {:.1f} {:.1f} | joint rpy {:.4f} {:.4f} {:.4f} xy {:.1f} {:.1f} | final tz {:.1f} mm | "
-               "correction {:.1f} mm RMS {} | map offset median {:.1f} mm, perfect {:.1f} mm ({:.0f} s)\n",
+               "correction {:.1f} mm RMS, {:.0f}% thinner, {} | map offset median {:.1f} mm, perfect {:.1f} mm ({:.0f} s)\n",
                seed, run.perfect[3], run.perfect[4], run.perfect[5], 1e3 * run.perfect[0], 1e3 * run.perfect[1],
                run.ins_truth[3], run.ins_truth[4], run.ins_truth[5], 1e3 * run.ins_truth[0], 1e3 * run.ins_truth[1],
                run.joint[3], run.joint[4], run.joint[5], 1e3 * run.joint[0], 1e3 * run.joint[1], 1e3 * run.final[2],
-               run.correction_rms_mm, run.applied ? "applied" : "not applied",
+               run.correction_rms_mm,
+               d.r.trajectory.cost_ins_rms_m > 0.0 ? 100.0 * (1.0 - d.r.trajectory.cost_corrected_rms_m / d.r.trajectory.cost_ins_rms_m) : 0.0,
+               run.applied ? "applied" : "not applied",
                1e3 * map_offset_median_m(d.r.ins_screen),
                1e3 * map_offset_median_m(p.r.ins_screen), std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   }

@@ -151,8 +151,8 @@ TEST(TrajectoryDefault, EstimatesTheLeverArmOnAOneWayLoopWithinItsStddev) {
   EXPECT_LT(extrinsic_error(r.T_ins_lidar, world->T_ins_lidar_true).angle_deg, 0.05);
 }
 
-// A drifting INS whose correction is estimated but too weak to apply (here: the apply threshold
-// raised beyond it): the answer is `off`'s, stage 2 on the INS poses as exact, so every DOF's
+// A drifting INS whose correction is estimated but too weak to apply (here: the gain it must
+// bring raised beyond reach): the answer is `off`'s, stage 2 on the INS poses as exact, so every DOF's
 // stddev carries the slow error the correction measured (on real scans a 53 mm RMS correction
 // that was not applied left yaw 0.13 deg off at a stated 0.04, and `check` called the true
 // extrinsic `drifted`: bench/results/check.md).
@@ -164,7 +164,7 @@ TEST(TrajectoryDefault, AnUnappliedCorrectionStillCountsInEveryStddev) {
   const Dataset data = sim::world_dataset(world);
   PipelineConfig config;
   config.repeatability.segments = 0;
-  config.trajectory.apply_min_rms_m = 10.0;
+  config.trajectory.apply_min_gain = 10.0;
   const CalibrationResult r = run_calibration(make_frame_store(data, config), config);
   config.trajectory.mode = TrajectoryCorrectionMode::kOff;
   const CalibrationResult off = run_calibration(make_frame_store(data, config), config);

@@ -90,6 +90,16 @@ TEST(TrajectoryGate, ACorrectionFarBeyondItsPriorIsNotApplied) {
   EXPECT_FALSE(small.applied);
   EXPECT_NE(small.decision.find("consistent"), std::string::npos) << small.decision;
 
+  // An INS that states its drift needs no size from the LiDAR, only a thinner map (drift study
+  // seeds 8 and 9: 24.6 mm, 17-18% thinner, refused before; yaw 0.030 deg off instead of 0.021).
+  decide_application(config, small, /*ins_states_drift=*/true);
+  EXPECT_TRUE(small.applied) << small.decision;
+  TrajectoryCorrection no_gain = found({0.010, 0.010, 0.005});
+  no_gain.cost_corrected_rms_m = 0.95 * no_gain.cost_ins_rms_m;  // 5% thinner: an RTK fix's noise
+  decide_application(config, no_gain, /*ins_states_drift=*/true);
+  EXPECT_FALSE(no_gain.applied);
+  EXPECT_NE(no_gain.decision.find("does not confirm"), std::string::npos) << no_gain.decision;
+
   config.mode = TrajectoryCorrectionMode::kAlways;  // the user's word wins
   decide_application(config, ramp);
   EXPECT_TRUE(ramp.applied);

@@ -143,6 +143,33 @@ std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size
   return out;
 }
 
+std::vector<std::size_t> fill_between(const DriveFrames& drive, const std::vector<std::size_t>& frames,
+                                      std::size_t per_gap) {
+  std::vector<std::size_t> position;  // of each of `frames` in the drive
+  for (std::size_t f : frames) {
+    const auto it = std::lower_bound(drive.index.begin(), drive.index.end(), f);
+    if (it != drive.index.end() && *it == f) position.push_back(static_cast<std::size_t>(it - drive.index.begin()));
+  }
+  std::vector<std::size_t> out;
+  auto push = [&](std::size_t k) {
+    if (out.empty() || out.back() < drive.index[k]) out.push_back(drive.index[k]);
+  };
+  for (std::size_t j = 0; j < position.size(); ++j) {
+    push(position[j]);
+    if (j + 1 == position.size()) break;
+    const std::size_t a = position[j], b = position[j + 1];
+    std::size_t k = a;
+    for (std::size_t step = 1; step <= per_gap; ++step) {
+      const double target = drive.motion_m[a] + (drive.motion_m[b] - drive.motion_m[a]) * static_cast<double>(step) /
+                                                    static_cast<double>(per_gap + 1);
+      while (k + 1 < b && drive.motion_m[k + 1] <= target) ++k;
+      const bool next_nearer = k + 1 < b && drive.motion_m[k + 1] - target < target - drive.motion_m[k];
+      if (k > a || next_nearer) push(next_nearer ? k + 1 : k);
+    }
+  }
+  return out;
+}
+
 std::vector<std::size_t> check_sample(const FrameStore& store, std::size_t n, double time_offset_s) {
   const DriveFrames drive = drive_frames(store, time_offset_s);
   std::vector<std::size_t> decoded;

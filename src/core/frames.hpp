@@ -103,6 +103,13 @@ DriveFrames drive_frames(const FrameStore& store, double time_offset_s = 0.0, do
 std::vector<std::size_t> spread_over_motion(const DriveFrames& frames, std::size_t n, std::size_t first = 0,
                                             std::size_t last = static_cast<std::size_t>(-1));
 
+/// `frames` (dataset indices, time order, each a frame of `drive`) and, between each consecutive
+/// pair, `per_gap` more at equal steps of the motion measure (the frame nearest each step), in
+/// time order without repeats. A step that samples the drive more densely on the frames an earlier
+/// one decoded: the trajectory correction's 240 around stage 2's 120.
+std::vector<std::size_t> fill_between(const DriveFrames& drive, const std::vector<std::size_t>& frames,
+                                      std::size_t per_gap);
+
 /// Up to n frames (dataset indices, time order) for a check that samples the drive after stage 1
 /// (INS screening, moving points): the decoded ones when at least n / 2 are (n of them, evenly in
 /// time order, if more); else n spread over every frame's motion. The decoded frames are the ones

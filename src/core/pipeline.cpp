@@ -46,8 +46,8 @@ void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames,
 // study keep the reported poses (fiducials are absolute and the correction's mean is a gauge
 // choice; and stage 3 on the corrected poses came out 0.27-0.64 m off on some drives, not yet
 // understood: tests/trajectory_correction_test.cpp, the disabled test).
-void run_trajectory_correction(const FrameStore& store, const PipelineConfig& config, const PipelineProgress& progress,
-                               CalibrationResult& r) {
+void run_trajectory_correction(const FrameStore& store, const std::vector<std::size_t>& refine_frames,
+                               const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
   RefineConfig refine = config.refine;
   // The time offset stays stage 2's: along the travel it moves the map as the knots do, and
   // estimated with them its stddev came out 2.5x its error (median) on 150 simulated drifting
@@ -55,7 +55,8 @@ void run_trajectory_correction(const FrameStore& store, const PipelineConfig& co
   refine.estimate_time_offset = false;
   if (config.trajectory.hold_lever_arm) refine.held[0] = refine.held[1] = true;
   progress("trajectory", 0.0);
-  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen);
+  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen,
+                                    refine_frames);
   progress("trajectory", 1.0);
   const auto measured_drift = [&] {
     return random_walk_stddev(*r.refine, r.trajectory.correction_rms_axes_m,
@@ -351,7 +352,7 @@ CalibrationResult run_calibration(const FrameStore& store, const PipelineConfig&
                         : std::vector<std::size_t>{};
   NearPoints near;  // stage 3 runs twice (before and after stage 2) on the same raw sweeps
   if (config.run_refine) run_refine(screened, refine_frames, config, progress, near, r);
-  if (config.run_refine) run_trajectory_correction(screened, config, progress, r);
+  if (config.run_refine) run_trajectory_correction(screened, refine_frames, config, progress, r);
   const FrameStore& placed = screened;  // the poses the later steps use (the reported ones)
 
   run_finish(placed, groups, refine_frames, config, progress, r, beside, &near);  // steps 4-5

@@ -120,7 +120,7 @@ void visit_config(V& v, TrajectoryCorrectionConfig& c) {
   v.section("filter", c.filter);
   v("max_iterations", c.max_iterations, "Gauss-Newton iterations at most");
   v("refit_iterations", c.refit_iterations, "iterations that re-find the local planes before freezing them");
-  v("apply_min_rms_m", c.apply_min_rms_m, "auto: apply when the correction's time-varying part has at least this RMS, m");
+  v("apply_min_rms_m", c.apply_min_rms_m, "auto: apply when the correction's time-varying part has at least this RMS, m (not asked when the INS states its drift)");
   v("apply_min_gain", c.apply_min_gain, "auto: ...and lowers the plane-thickness cost by at least this fraction");
   v("max_prior_ratio", c.max_prior_ratio,
     "auto: ...and is on no axis more than this many times the RMS its random-walk prior expects");
@@ -160,7 +160,10 @@ Vec3 prior_rms_axes_m(const TrajectoryCorrection& s, const TrajectoryCorrectionC
 
 /// Sets s.applied and s.decision from the mode, the drive's evidence (apply_min_rms_m,
 /// apply_min_gain) and the correction's plausibility against its prior (max_prior_ratio).
-void decide_application(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s);
+/// ins_states_drift: the INS's own stated accuracy says it drifts (if-drifting's evidence); the
+/// correction's size then need not show it again, only the map getting thinner.
+void decide_application(const TrajectoryCorrectionConfig& config, TrajectoryCorrection& s,
+                        bool ins_states_drift = false);
 
 /// How far the INS's stated horizontal stddev grows above its best value on the drive: RMS over
 /// the samples outside the store's left-out spans of sqrt(stated^2 - best^2), m; 0 when the INS
@@ -193,9 +196,12 @@ PoseStream corrected_poses(const PoseStream& poses, const TrajectoryCorrection& 
 /// result). Local planes follow `refine` (plane_voxel_m etc.); tz and, unless
 /// refine.estimate_time_offset, the offset stay fixed. `ins_quality`: the INS's stated stddevs.
 /// `screen`: the INS screen's findings, if-drifting's evidence where the INS states nothing
-/// (none: such a drive counts as not drifting).
+/// (none: such a drive counts as not drifting). `around`: stage 2's frames, if any: the correction
+/// then takes them and as many again between them as config.max_frames allows (they are decoded
+/// already: half its decoding saved), else its own config.max_frames spread over the drive.
 TrajectoryCorrection correct_trajectory(const FrameStore& store, const Iso3& T_ins_lidar_start,
                                         double time_offset_start_s, const TrajectoryCorrectionConfig& config,
-                                        const RefineConfig& refine, const InsScreenResult* screen = nullptr);
+                                        const RefineConfig& refine, const InsScreenResult* screen = nullptr,
+                                        const std::vector<std::size_t>& around = {});
 
 }  // namespace insalign
