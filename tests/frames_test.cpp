@@ -39,6 +39,24 @@ TEST(SpreadOverMotion, PrefersADecodedFrameInsideItsSliceOnly) {
   EXPECT_EQ(spread_over_motion(d, 4), (std::vector<std::size_t>{13, 38, 60, 88}));
 }
 
+// The trajectory correction's frames: stage 2's and more at equal steps of motion between them.
+TEST(FillBetween, AddsFramesAtEqualMotionStepsBetweenTheGivenOnes) {
+  DriveFrames d = straight(101);
+  for (std::size_t i = 0; i < d.size(); ++i) d.index[i] = 1000 + 2 * i;  // dataset indices are not positions
+  const std::vector<std::size_t> stage2 = {1000 + 2 * 13, 1000 + 2 * 38, 1000 + 2 * 63, 1000 + 2 * 88};
+  EXPECT_EQ(fill_between(d, stage2, 0), stage2);
+  // Halfway: 25.5 and 50.5 m round to the nearer frame (25 and 50: ties keep the earlier one).
+  EXPECT_EQ(fill_between(d, stage2, 1), (std::vector<std::size_t>{1026, 1050, 1076, 1100, 1126, 1150, 1176}));
+  EXPECT_EQ(fill_between(d, {1000 + 2 * 13, 1000 + 2 * 38}, 4),
+            (std::vector<std::size_t>{1026, 1036, 1046, 1056, 1066, 1076}));
+  // Neighbours leave no room: no repeats, nothing beyond them; a frame not in the drive is dropped.
+  EXPECT_EQ(fill_between(d, {1000, 1002, 1004, 7}, 3), (std::vector<std::size_t>{1000, 1002, 1004}));
+  // Uneven motion (a stop): the steps are of motion, not of frames.
+  DriveFrames stop = straight(11);
+  for (std::size_t i = 0; i < stop.size(); ++i) stop.motion_m[i] = i <= 5 ? 0.1 * static_cast<double>(i) : 0.5 + (i - 5.0);
+  EXPECT_EQ(fill_between(stop, {0, 10}, 1), (std::vector<std::size_t>{0, 7, 10}));  // 2.75 m: frame 7 (2.5 m), not 5
+}
+
 // A straight 10 m/s drive of 101 frames at 10 Hz, poses at 100 Hz, empty sweeps.
 Dataset straight_dataset() {
   Dataset data;

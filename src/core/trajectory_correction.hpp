@@ -80,7 +80,7 @@ struct TrajectoryCorrectionConfig {
   /// Points of one plane seen from one sweep share their errors (range bias, the sweep's pose):
   /// the data term counts as this many times fewer independent points against the prior.
   double point_correlation = 20.0;
-  std::size_t max_frames = 240;           ///< frames spread over the drive's motion
+  std::size_t max_frames = 240;           ///< frames spread over the drive's motion (stage 2's and between them)
   SweepFilter filter{.min_range_m = 0.0, .max_range_m = 60.0, .voxel_m = 0.2, .max_points = 5000};
   int max_iterations = 10;
   int refit_iterations = 3;               ///< iterations that re-find the local planes
@@ -116,7 +116,7 @@ void visit_config(V& v, TrajectoryCorrectionConfig& c) {
     "keep stage 2's horizontal lever arm; the correction moves the rotation only");
   v("heading_drift_deg_per_sqrt_s", c.heading_drift_deg_per_sqrt_s, "assumed INS heading random walk (prior), deg/sqrt(s)");
   v("point_correlation", c.point_correlation, "points per independent observation, weighing the data against the prior");
-  v("max_frames", c.max_frames, "frames spread over the drive's motion");
+  v("max_frames", c.max_frames, "frames spread over the drive's motion: stage 2's and as many between them as fit");
   v.section("filter", c.filter);
   v("max_iterations", c.max_iterations, "Gauss-Newton iterations at most");
   v("refit_iterations", c.refit_iterations, "iterations that re-find the local planes before freezing them");
