@@ -30,8 +30,8 @@ constexpr int kOffset = 6;
 constexpr std::size_t kMinFrames = 10;
 constexpr std::size_t kMaxKnots = 300;  // the normal equations are dense in the knots
 constexpr double kTableStep_s = 0.01;   // pose table over a sweep, for the Jacobians
-constexpr double kLook_s = 0.006;
-constexpr std::uint32_t kAhead = 16;    // map points prefetched this far ahead       // the time-offset derivative looks this far beyond a sweep
+constexpr double kLook_s = 0.006;       // the time-offset derivative looks this far beyond a sweep
+constexpr std::uint32_t kAhead = 16;    // map points prefetched this far ahead
 // Gauge: the corrections' mean is unobservable (a world shift; a heading mean is extrinsic yaw).
 // A prior on the mean alone fixes it without pulling any knot towards zero. Pinned hard: the
 // map's cost depends a little on where the voxel grid cuts it, and a 1 cm prior let that walk the
@@ -211,7 +211,8 @@ struct PlaneSum {
 // between the same two knots therefore need only sum((1 - w) e), sum(w e) and a few sums of
 // scalars, added to H, g and the plane's summed row once per such run of points (sum(e e^T) needs
 // no knot at all): per point a handful of fixed-size sums instead of a 13-entry sparse row
-// scattered three times (the correction's normal equations 1.6 -> 0.9 s of CPU).
+// scattered three times (with the prefetch: the correction's normal equations 0.73 -> 0.36 s of
+// CPU on bench/correction_speed.sh's drive, bench/results/speed.md).
 struct KnotRun {
   int k = -1;  // the run's first knot; -1: empty
   VecE e0 = VecE::Zero(), e1 = VecE::Zero();
