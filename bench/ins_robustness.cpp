@@ -12,7 +12,7 @@
 //   poses (the method's own floor on that drive: no INS error at all), `off`, `auto` and the
 //   default (`if-drifting`); MAE and worst per DOF, how often the correction was applied, time.
 //
-//   build/bench/ins_robustness --study drift --seeds 10 [--azimuth-step-deg 0.4]
+//   build/bench/ins_robustness --study drift --seeds 10 [--azimuth-step-deg 0.4] [--vertical-walk 0]
 //   build/bench/ins_robustness --study coverage --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
 //       [--scenarios default,drift,...]
 //   build/bench/ins_robustness --study modes --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
@@ -47,6 +47,7 @@ struct Options {
   double recorded_duration_s = 0.0;  ///< coverage: drives along the recorded trajectory (0: full, 108 s)
   /// The INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR.
   bool no_stated_quality = false;
+  double vertical_walk_m_per_sqrt_s = 0.005;  ///< drift study: the INS's vertical random walk
 };
 
 // Absolute errors [tx ty tz (m), roll pitch yaw (deg)].
@@ -116,6 +117,7 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     sim::SimConfig drift = base.sim;
     drift.ins_error.model = sim::InsErrorModel::kDrift;
     drift.ins_error.drift_heading_deg_per_sqrt_s = 0.0;
+    drift.ins_error.drift_vertical_m_per_sqrt_s = o.vertical_walk_m_per_sqrt_s;
     const auto t0 = std::chrono::steady_clock::now();
     const Calibrated p = calibrate(perfect, true, pipeline, o.no_stated_quality);
     const Calibrated d = calibrate(drift, true, pipeline, o.no_stated_quality);
@@ -158,8 +160,9 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
   const double n = static_cast<double>(runs.size());
   mae_p /= n, mae_i /= n, mae_j /= n, mae_f /= n;
   fmt::print("\nRecorded NovAtel trajectory, {} seeds from {}, azimuth step {} deg; drifting INS: position random walk "
-             "{} mm/sqrt(s) per axis, heading drift 0; trajectory.mode {}; correction applied on {}/{}\n",
+             "{} mm/sqrt(s) per horizontal axis, {} vertical, heading drift 0; trajectory.mode {}; correction applied on {}/{}\n",
              runs.size(), first_seed, o.azimuth_step_deg, 1e3 * tool.sim.ins_error.drift_horizontal_m_per_sqrt_s,
+             1e3 * o.vertical_walk_m_per_sqrt_s,
              enum_name(pipeline.trajectory.mode), applied, runs.size());
   fmt::print("| {:<34} | {:>6} | {:>6} | {:>7} | {:>7} | {:>7} | {:>7} |\n", "(mm, mm, mm, deg, deg, deg)", "tx", "ty",
              "tz", "roll", "pitch", "yaw");
@@ -383,6 +386,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--no-stated-quality", o.no_stated_quality,
                "the INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR");
+  app.add_option("--vertical-walk", o.vertical_walk_m_per_sqrt_s,
+                 "drift study: the INS's vertical position random walk, m/sqrt(s) (horizontal: 0.005)")
+      ->capture_default_str();
   std::vector<std::string> assignments;
   app.add_option("--set", assignments, "override a parameter (keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
