@@ -104,7 +104,35 @@ struct Tally {
   int drives = 0, false_alarm_drives = 0, unchanged = 0, knocked = 0;
   std::array<int, 7> observable{}, detected{}, knocked_observable{}, covered{}, finite{};
   std::array<std::vector<double>, 7> stddevs, errors;  // finite-stddev drives: stated stddev, correction - truth
+  std::array<std::vector<double>, 7> honest_p;         // knocked, observable: P(detected) were the stddev honest
 };
+
+double normal_cdf(double x) { return 0.5 * std::erfc(-x / std::sqrt(2.0)); }
+
+// Were the stated stddev honest (correction ~ N(truth, stddev)), the chance that a knocked DOF the
+// check did not call `not-observable` is called `drifted`: P(drifted) / (P(drifted) + P(ok)). With
+// the knock at the tolerance (2 cm for a 2 cm tolerance) half the corrections fall short of it and
+// most of those are `not-observable`; `ok` takes those 2 stddev short: at best 1 - 0.023 / 0.523 =
+// 95.6% for a small stddev, less for a larger one. The detection rate is read against this.
+double honest_detection(double truth, double sd, double tolerance, const CheckConfig& c) {
+  const double a = std::max(tolerance, c.drift_sigmas * sd), b = tolerance - c.ok_sigmas * sd;
+  const double p_drifted = normal_cdf((-a - truth) / sd) + normal_cdf((truth - a) / sd);
+  const double p_ok = b > 0.0 ? normal_cdf((b - truth) / sd) - normal_cdf((-b - truth) / sd) : 0.0;
+  return p_drifted + p_ok > 0.0 ? p_drifted / (p_drifted + p_ok) : 0.0;
+}
+
+// P(at most k successes) of independent trials with these probabilities (Poisson binomial).
+double at_most(const std::vector<double>& p, int k) {
+  std::vector<double> dist{1.0};
+  for (double q : p) {
+    std::vector<double> next(dist.size() + 1, 0.0);
+    for (std::size_t n = 0; n < dist.size(); ++n) next[n] += dist[n] * (1.0 - q), next[n + 1] += dist[n] * q;
+    dist = std::move(next);
+  }
+  double sum = 0.0;
+  for (int n = 0; n <= k && n < static_cast<int>(dist.size()); ++n) sum += dist[static_cast<std::size_t>(n)];
+  return sum;
+}
 
 struct Row {
   std::array<DofCheck, 7> dofs;
@@ -141,7 +169,7 @@ Row row_from_json(const nlohmann::json& j) {
 
 using Groups = std::map<std::string, std::map<std::string, Tally>>;  // "drive type", "INS", ... -> level -> tally
 
-void add(Tally& t, const Row& r) {
+void add(Tally& t, const Row& r, const CheckConfig& check) {
   ++t.drives;
   (r.knocked ? t.knocked : t.unchanged)++;
   bool alarm = false;
@@ -153,6 +181,8 @@ void add(Tally& t, const Row& r) {
     if (r.knocked && r.truth(j) != 0.0 && observable) {
       ++t.knocked_observable[j];
       t.detected[j] += c.verdict == DofVerdictKind::kDrifted;
+      if (std::isfinite(c.stddev) && c.stddev > 0.0)
+        t.honest_p[j].push_back(honest_detection(r.truth(j), c.stddev, dof_tolerance(j, check), check));
     }
     if (std::isfinite(c.stddev)) {
       ++t.finite[j];
@@ -193,12 +223,18 @@ void print_tables(const Groups& groups, const Tally& all) {
   fmt::print("\n### After {} drives ({} unchanged, {} knocked)\n", all.drives, all.unchanged, all.knocked);
   fmt::print("\nfalse alarms: {} of {} unchanged drives ({:.1f}%) had a DOF `drifted`\n", all.false_alarm_drives,
              all.unchanged, 100.0 * all.false_alarm_drives / std::max(1, all.unchanged));
-  fmt::print("\n| DOF | knocked, observable | detected (`drifted`) | within 3 stddev of the truth (finite stddev) | median stated stddev | RMS error |\n|---|---|---|---|---|---|\n");
+  fmt::print("\n| DOF | knocked, observable | detected (`drifted`) | expected were the stddevs honest (P of as few) | within 3 stddev of the truth (finite stddev) | median stated stddev | RMS error |\n|---|---|---|---|---|---|---|\n");
   for (int j : {0, 1, 3, 4, 5, 6, 2}) {
     const std::string detected = all.knocked_observable[j]
         ? fmt::format("{} ({:.0f}%)", all.detected[j], 100.0 * all.detected[j] / all.knocked_observable[j]) : "-";
-    fmt::print("| {} | {} | {} | {} / {} ({:.0f}%) | {:.3g} {} | {:.3g} {} |\n", kCheckDofNames[j], all.knocked_observable[j],
-               detected, all.covered[j], all.finite[j], 100.0 * all.covered[j] / std::max(1, all.finite[j]),
+    double expected = 0.0;
+    for (double p : all.honest_p[j]) expected += p;
+    const std::string honest = all.honest_p[j].empty() ? "-"
+        : fmt::format("{:.1f} ({:.0f}%; {:.0f}%)", expected, 100.0 * expected / static_cast<double>(all.honest_p[j].size()),
+                      100.0 * at_most(all.honest_p[j], all.detected[j]));
+    fmt::print("| {} | {} | {} | {} | {} / {} ({:.0f}%) | {:.3g} {} | {:.3g} {} |\n", kCheckDofNames[j],
+               all.knocked_observable[j], detected, honest, all.covered[j], all.finite[j],
+               100.0 * all.covered[j] / std::max(1, all.finite[j]),
                shown(j, median(all.stddevs[j])), shown_unit(j), shown(j, rms(all.errors[j])), shown_unit(j));
   }
   for (const auto& [title, g] : groups) print_observability(title.c_str(), g);
@@ -212,18 +248,19 @@ std::string dof_list(const std::array<DofCheck, 7>& dofs, DofVerdictKind kind) {
   return out.empty() ? "-" : out;
 }
 
-void add_row(const Row& r, Groups& groups, Tally& all) {
-  add(all, r);
-  for (const auto& [factor_name, level] : r.levels) add(groups[factor_name][level], r);
+void add_row(const Row& r, const CheckConfig& check, Groups& groups, Tally& all) {
+  add(all, r, check);
+  for (const auto& [factor_name, level] : r.levels) add(groups[factor_name][level], r, check);
 }
 
 int tables_from_jsonl(const Options& o) {
+  const CheckConfig check = cli::tool_config_with(o.set).check.check;
   Groups groups;
   Tally all;
   for (const std::string& f : o.from_jsonl) {
     std::ifstream in(f);
     for (std::string line; std::getline(in, line);)
-      if (!line.empty()) add_row(row_from_json(nlohmann::json::parse(line)), groups, all);
+      if (!line.empty()) add_row(row_from_json(nlohmann::json::parse(line)), check, groups, all);
   }
   print_tables(groups, all);
   return 0;
@@ -257,7 +294,7 @@ int run(const Options& o) {
     r.levels = {{"drive type", kKindNames[static_cast<std::size_t>(d.kind)]}, {"INS", ins},
                 {"mount", kMounts[static_cast<std::size_t>(d.mount)]}, {"LiDAR", kModels[static_cast<std::size_t>(d.model)]},
                 {"traffic", fmt::format("{} vehicles", d.sim.traffic)}};
-    add_row(r, groups, all);
+    add_row(r, tool.check.check, groups, all);
     if (jsonl) jsonl << row_json(r).dump() << std::endl;
     const DofCheck& off = run.findings.dofs[6];
     fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1f} |\n", i,

@@ -13,6 +13,7 @@
 //   default (`if-drifting`); MAE and worst per DOF, how often the correction was applied, time.
 //
 //   build/bench/ins_robustness --study drift --seeds 10 [--azimuth-step-deg 0.4] [--vertical-walk 0]
+//       [--horizontal-walk 0] [--noise-floor]
 //   build/bench/ins_robustness --study coverage --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
 //       [--scenarios default,drift,...]
 //   build/bench/ins_robustness --study modes --seeds 3 --azimuth-step-deg 0.8 --duration-s 75
@@ -47,7 +48,9 @@ struct Options {
   double recorded_duration_s = 0.0;  ///< coverage: drives along the recorded trajectory (0: full, 108 s)
   /// The INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR.
   bool no_stated_quality = false;
-  double vertical_walk_m_per_sqrt_s = 0.005;  ///< drift study: the INS's vertical random walk
+  double vertical_walk_m_per_sqrt_s = 0.005;    ///< drift study: the INS's vertical random walk
+  double horizontal_walk_m_per_sqrt_s = 0.005;  ///< drift study: the INS's horizontal random walk
+  bool noise_floor = false;                     ///< drift study: also the same INS without its walk
 };
 
 // Absolute errors [tx ty tz (m), roll pitch yaw (deg)].
@@ -99,6 +102,7 @@ std::vector<std::string> split(const std::string& list) {
 
 struct DriftRun {
   Vec6 perfect = Vec6::Zero(), ins_truth = Vec6::Zero(), joint = Vec6::Zero(), final = Vec6::Zero();
+  Vec6 noise_default = Vec6::Zero(), noise_corrected = Vec6::Zero();  // --noise-floor: the INS without its walk
   bool applied = false;
   double correction_rms_mm = 0.0;
 };
@@ -118,6 +122,7 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     drift.ins_error.model = sim::InsErrorModel::kDrift;
     drift.ins_error.drift_heading_deg_per_sqrt_s = 0.0;
     drift.ins_error.drift_vertical_m_per_sqrt_s = o.vertical_walk_m_per_sqrt_s;
+    drift.ins_error.drift_horizontal_m_per_sqrt_s = o.horizontal_walk_m_per_sqrt_s;
     const auto t0 = std::chrono::steady_clock::now();
     const Calibrated p = calibrate(perfect, true, pipeline, o.no_stated_quality);
     const Calibrated d = calibrate(drift, true, pipeline, o.no_stated_quality);
@@ -133,6 +138,18 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
     run.final = abs_error(d.r.T_ins_lidar, gt);
     run.applied = d.r.trajectory.applied;
     run.correction_rms_mm = 1e3 * d.r.trajectory.correction_rms_m;
+    if (o.noise_floor) {
+      // The same INS without its walk: what its white noise alone leaves, through the default
+      // (stage 2: no drift stated) and through the correction forced on.
+      sim::SimConfig noise = drift;
+      noise.ins_error.drift_horizontal_m_per_sqrt_s = noise.ins_error.drift_vertical_m_per_sqrt_s = 0.0;
+      PipelineConfig forced = pipeline;
+      forced.trajectory.mode = TrajectoryCorrectionMode::kAlways;
+      const Calibrated nd = calibrate(noise, true, pipeline, o.no_stated_quality);
+      const Calibrated nc = calibrate(noise, true, forced, o.no_stated_quality);
+      if (nd.ok) run.noise_default = abs_error(nd.r.T_ins_lidar, nd.world->T_ins_lidar_true);
+      if (nc.ok) run.noise_corrected = abs_error(nc.r.T_ins_lidar, nc.world->T_ins_lidar_true);
+    }
     runs.push_back(run);
     fmt::print(stderr,
                "seed {:>3}: perfect rpy {:.4f} {:.4f} {:.4f} xy {:.1f} {:.1f} mm | drift: INS as truth rpy {:.4f} {:.4f} "
@@ -149,19 +166,21 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
   }
   if (runs.empty()) return 1;
   Vec6 mae_p = Vec6::Zero(), mae_i = Vec6::Zero(), mae_j = Vec6::Zero(), mae_f = Vec6::Zero();
+  Vec6 mae_nd = Vec6::Zero(), mae_nc = Vec6::Zero();
   Vec6 worst_p = Vec6::Zero(), worst_i = Vec6::Zero(), worst_j = Vec6::Zero(), worst_f = Vec6::Zero();
   int applied = 0;
   for (const DriftRun& r : runs) {
     mae_p += r.perfect, mae_i += r.ins_truth, mae_j += r.joint, mae_f += r.final;
+    mae_nd += r.noise_default, mae_nc += r.noise_corrected;
     worst_p = worst_p.cwiseMax(r.perfect), worst_i = worst_i.cwiseMax(r.ins_truth);
     worst_j = worst_j.cwiseMax(r.joint), worst_f = worst_f.cwiseMax(r.final);
     applied += r.applied;
   }
   const double n = static_cast<double>(runs.size());
-  mae_p /= n, mae_i /= n, mae_j /= n, mae_f /= n;
+  mae_p /= n, mae_i /= n, mae_j /= n, mae_f /= n, mae_nd /= n, mae_nc /= n;
   fmt::print("\nRecorded NovAtel trajectory, {} seeds from {}, azimuth step {} deg; drifting INS: position random walk "
              "{} mm/sqrt(s) per horizontal axis, {} vertical, heading drift 0; trajectory.mode {}; correction applied on {}/{}\n",
-             runs.size(), first_seed, o.azimuth_step_deg, 1e3 * tool.sim.ins_error.drift_horizontal_m_per_sqrt_s,
+             runs.size(), first_seed, o.azimuth_step_deg, 1e3 * o.horizontal_walk_m_per_sqrt_s,
              1e3 * o.vertical_walk_m_per_sqrt_s,
              enum_name(pipeline.trajectory.mode), applied, runs.size());
   fmt::print("| {:<34} | {:>6} | {:>6} | {:>7} | {:>7} | {:>7} | {:>7} |\n", "(mm, mm, mm, deg, deg, deg)", "tx", "ty",
@@ -171,6 +190,10 @@ int drift_study(const cli::ToolConfig& tool, const Options& o, int seeds, std::u
   print_row("MAE drift, INS as truth (stage 2)", mae_i);
   print_row("MAE drift, joint (INS corrected)", mae_j);
   print_row("MAE drift, final", mae_f);
+  if (o.noise_floor) {
+    print_row("MAE no walk, INS noise (default)", mae_nd);
+    print_row("MAE no walk, INS noise (corrected)", mae_nc);
+  }
   print_row("worst perfect poses", worst_p);
   print_row("worst drift, INS as truth", worst_i);
   print_row("worst drift, joint", worst_j);
@@ -387,8 +410,15 @@ int main(int argc, char** argv) {
   app.add_flag("--no-stated-quality", o.no_stated_quality,
                "the INS states no accuracy (as a TUM or OpenCalib pose file): if-drifting decides from the LiDAR");
   app.add_option("--vertical-walk", o.vertical_walk_m_per_sqrt_s,
-                 "drift study: the INS's vertical position random walk, m/sqrt(s) (horizontal: 0.005)")
+                 "drift study: the INS's vertical position random walk, m/sqrt(s)")
       ->capture_default_str();
+  app.add_option("--horizontal-walk", o.horizontal_walk_m_per_sqrt_s,
+                 "drift study: the INS's horizontal position random walk per axis, m/sqrt(s) (0 and "
+                 "--vertical-walk 0: the INS's white noise alone)")
+      ->capture_default_str();
+  app.add_flag("--noise-floor", o.noise_floor,
+               "drift study: also run each seed's INS without its walk (its white noise alone), through the "
+               "default and with the correction forced on");
   std::vector<std::string> assignments;
   app.add_option("--set", assignments, "override a parameter (keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
