@@ -43,9 +43,9 @@ void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames,
 
 // The INS trajectory corrected jointly with the extrinsic: stage 2 takes the INS poses as exact,
 // and a drifting INS biases it. Only the extrinsic is taken from it: stage 3 and the repeatability
-// study keep the reported poses (fiducials are absolute and the correction's mean is a gauge
-// choice; and stage 3 on the corrected poses came out 0.27-0.64 m off on some drives, not yet
-// understood: tests/trajectory_correction_test.cpp, the disabled test).
+// study keep the reported poses: fiducials are absolute and the correction's mean is a gauge
+// choice (held by a 1 cm prior it walked 0.73 m and took stage 3's tz with it; it is pinned now:
+// TrajectoryCorrection.CorrectedPosesKeepTheFiducialTz).
 void run_trajectory_correction(const FrameStore& store, const std::vector<std::size_t>& refine_frames,
                                const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
   RefineConfig refine = config.refine;
