@@ -1,7 +1,6 @@
 // MCAP reader: footer + summary on open (or a streamed scan when there is no summary), message
 // index records on the first messages() call, one chunk pread + decompression per read() miss.
 #include <fcntl.h>
-#include <lz4frame.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #include <zstd.h>
@@ -366,37 +365,26 @@ Bytes decompress_chunk(const ChunkHeader& h, const std::string& file, std::uint6
   return out;
 }
 
-// Incremental zstd or lz4-frame decoding into a bounded output, for the first bytes of a chunk.
-class PrefixDecoder {
+// Incremental zstd decoding into a bounded output, for the first bytes of a chunk. (lz4 chunks
+// go through lz4_frame_decompress_prefix, which stops inside a block: LZ4F's streaming decoder
+// decodes whole blocks of up to 4 MB, so the INS messages before a cloud cost the cloud.)
+class ZstdPrefixDecoder {
  public:
-  PrefixDecoder(const std::string& compression, const std::string& file, std::uint64_t offset)
-      : zstd_(compression == "zstd"), file_(file), offset_(offset) {
-    if (zstd_) z_ = ZSTD_createDCtx();
-    if (!zstd_ && LZ4F_isError(LZ4F_createDecompressionContext(&l_, LZ4F_VERSION))) l_ = nullptr;
-    if (z_ == nullptr && l_ == nullptr) throw std::bad_alloc();
+  ZstdPrefixDecoder(const std::string& file, std::uint64_t offset) : z_(ZSTD_createDCtx()), file_(file), offset_(offset) {
+    if (z_ == nullptr) throw std::bad_alloc();
   }
-  ~PrefixDecoder() {
-    ZSTD_freeDCtx(z_);
-    LZ4F_freeDecompressionContext(l_);
-  }
-  PrefixDecoder(const PrefixDecoder&) = delete;
-  PrefixDecoder& operator=(const PrefixDecoder&) = delete;
+  ~ZstdPrefixDecoder() { ZSTD_freeDCtx(z_); }
+  ZstdPrefixDecoder(const ZstdPrefixDecoder&) = delete;
+  ZstdPrefixDecoder& operator=(const ZstdPrefixDecoder&) = delete;
 
   /// Decodes `piece` (the next compressed bytes) into out[produced..]; returns the new count.
   std::size_t feed(const Bytes& piece, Bytes& out, std::size_t produced) {
     for (std::size_t in_pos = 0; in_pos < piece.size() && produced < out.size();) {
-      std::size_t used = piece.size() - in_pos, made = out.size() - produced;
-      if (zstd_) {
-        ZSTD_inBuffer in{piece.data(), piece.size(), in_pos};
-        ZSTD_outBuffer ob{out.data(), out.size(), produced};
-        const std::size_t r = ZSTD_decompressStream(z_, &ob, &in);
-        if (ZSTD_isError(r)) fail(std::string("corrupt zstd chunk: ") + ZSTD_getErrorName(r));
-        used = in.pos - in_pos;
-        made = ob.pos - produced;
-      } else {
-        const std::size_t r = LZ4F_decompress(l_, out.data() + produced, &made, piece.data() + in_pos, &used, nullptr);
-        if (LZ4F_isError(r)) fail(std::string("corrupt lz4 chunk: ") + LZ4F_getErrorName(r));
-      }
+      ZSTD_inBuffer in{piece.data(), piece.size(), in_pos};
+      ZSTD_outBuffer ob{out.data(), out.size(), produced};
+      const std::size_t r = ZSTD_decompressStream(z_, &ob, &in);
+      if (ZSTD_isError(r)) throw InputError(file_, at_byte(offset_), std::string("corrupt zstd chunk: ") + ZSTD_getErrorName(r));
+      const std::size_t used = in.pos - in_pos, made = ob.pos - produced;
       in_pos += used;
       produced += made;
       if (used == 0 && made == 0) break;  // the frame is over
@@ -405,10 +393,7 @@ class PrefixDecoder {
   }
 
  private:
-  [[noreturn]] void fail(const std::string& what) const { throw InputError(file_, at_byte(offset_), what); }
-  bool zstd_;
-  ZSTD_DCtx* z_ = nullptr;
-  LZ4F_dctx* l_ = nullptr;
+  ZSTD_DCtx* z_;
   const std::string& file_;
   std::uint64_t offset_;
 };
@@ -937,8 +922,9 @@ bool McapReader::take_crc_check(std::size_t chunk) const {
   return crc_checked_[chunk] == 0;
 }
 
-/// The first `want` bytes of a chunk's records (fewer if it holds fewer), its compressed data
-/// read and decoded in growing pieces: a cloud's header needs its first block, not the chunk.
+/// The first `want` bytes of a chunk's records (fewer if it holds fewer), its compressed data read
+/// and decoded only that far (zstd in growing pieces): a cloud's header needs its first block, and
+/// the INS messages before a cloud need no cloud.
 Bytes McapReader::chunk_prefix(std::size_t chunk, std::uint64_t want) const {
   const ChunkLocation& c = chunks_[chunk];
   const std::uint64_t header = kRecordHeaderBytes + 8 + 8 + 8 + 4 + 4 + c.compression.size() + 8;
@@ -956,7 +942,12 @@ Bytes McapReader::chunk_prefix(std::size_t chunk, std::uint64_t want) const {
   want = std::min(want, c.uncompressed_size);
   const std::uint64_t records_at = c.offset + header;
   if (compression.empty()) return file_.read(records_at, std::min(want, records_size), c.offset);
-  PrefixDecoder decoder(compression, name(), c.offset);
+  if (compression == "lz4") {
+    // LZ4 turns each input byte into at least 255/256 of an output byte: this much input suffices.
+    const Bytes stored = file_.read(records_at, std::min<std::uint64_t>(records_size, want + want / 128 + 4096), c.offset);
+    return lz4_frame_decompress_prefix(stored.data(), stored.size(), static_cast<std::size_t>(want), name(), c.offset);
+  }
+  ZstdPrefixDecoder decoder(name(), c.offset);
   Bytes out(static_cast<std::size_t>(want));
   std::size_t produced = 0;
   for (std::uint64_t done = 0, step = 64 * 1024; produced < out.size() && done < records_size; step *= 2) {
