@@ -607,6 +607,58 @@ TEST(Mcap, DamagedCloudChunkKeepsTheSmallMessages) {
   fs::remove_all(dir);
 }
 
+// A recorder's chunk holds the INS messages and then a cloud. Reading the INS messages decodes the
+// chunk only as far as they go: an lz4 chunk's 4 MB block used to be decoded whole for them (every
+// cloud decoded once more per run; speed.md 1e). So a chunk damaged in its cloud's part still
+// gives them, and the cloud's own read names the damage.
+TEST(Mcap, Lz4ChunkGivesItsSmallMessagesWithoutDecodingTheCloudBehindThem) {
+  const fs::path dir = temp_dir("lz4prefix");
+  {
+    auto writer = make_mcap_writer(dir / "a.mcap", WriterOptions{Compression::kLz4, 16 * 1024, false});  // the recorder's layout
+    for (const Topic& t : sample_topics()) writer->add_topic(t);
+    for (const Written& m : sample_messages(5)) writer->write(m.topic, m.t_ns, m.data);
+    writer->close();
+  }
+  const std::string intact = read_raw(dir / "a.mcap");
+  const auto reference = open_mcap(dir / "a.mcap");
+  // A chunk whose last message is a cloud after small ones (the writer closes a chunk once full).
+  std::optional<std::uint64_t> locator;
+  std::vector<MessageRef> small;
+  for (const MessageRef& cloud : reference->messages(0)) {
+    small.clear();
+    for (std::uint32_t t = 1; t < reference->topics().size(); ++t)
+      for (const MessageRef& ref : reference->messages(t))
+        if (ref.locator == cloud.locator && ref.locator2 < cloud.locator2) small.push_back(ref);
+    if (small.size() >= 10) {
+      locator = cloud.locator;
+      break;
+    }
+  }
+  ASSERT_TRUE(locator.has_value()) << "no chunk with small messages before a cloud";
+  // The locator-th chunk record of the data section (records: opcode, u64 length, content).
+  std::size_t at = 8, chunks = 0;  // after the magic
+  while (at + 9 <= intact.size() && !(intact[at] == 0x06 && ++chunks == *locator)) at += 9 + le64(intact, at + 1);
+  ASSERT_EQ(chunks, *locator);
+  const std::size_t compression_at = at + 9 + 8 + 8 + 8 + 4;  // after the times, size and CRC
+  ASSERT_EQ(intact.substr(compression_at, 7), std::string("\x03\0\0\0lz4", 7));
+  const std::size_t records_at = compression_at + 7 + 8, records_size = static_cast<std::size_t>(le64(intact, compression_at + 7));
+  std::string damaged = intact;
+  for (std::size_t i = records_size - 48; i < records_size - 8; ++i) damaged[records_at + i] = '\xff';
+  write_raw(dir / "b.mcap", damaged);
+  const auto reader = open_mcap(dir / "b.mcap");
+  std::vector<BagReader::BatchRequest> requests;
+  for (const MessageRef& ref : small) requests.push_back({ref, 0});
+  std::size_t served = 0;
+  reader->read_batch(requests, [&](std::size_t k, Bytes bytes) {
+    ++served;
+    EXPECT_EQ(bytes, reference->read(requests[k].ref)) << k;
+  });
+  EXPECT_EQ(served, small.size());
+  for (const MessageRef& cloud : reader->messages(0))
+    if (cloud.locator == *locator) EXPECT_THROW((void)reader->read(cloud), InputError);
+  fs::remove_all(dir);
+}
+
 TEST(Mcap, CorruptCompressedChunkIsAnInputError) {
   const fs::path dir = temp_dir("zstdbad");
   write_sample(dir / "a.mcap", Compression::kZstd, 4096, sample_messages(6));
