@@ -91,5 +91,37 @@ TEST(Deskew, SyntheticMovingSensor) {
   EXPECT_GT(max_skew, 0.2);   // without deskew the error is the motion over a sweep
 }
 
+// On the circle (4 m/s, 0.4 rad/s about z) the motion table over a sweep holds the true pose,
+// velocity and yaw rate at every entry, and nearest() picks the entry of a point's time; near
+// the end of the poses the differences stay inside them (no throw).
+TEST(Deskew, SweepMotionHoldsPoseAndVelocities) {
+  std::vector<StampedPose> poses;
+  for (int k = 0; k <= 40; ++k) poses.push_back({0.1 * k, circle_pose(0.1 * k)});
+  const PoseStream stream(poses);
+  Sweep sweep;
+  sweep.t_end_s = 2.0;
+  for (int i = 0; i < 100; ++i) {
+    sweep.p_lidar.push_back(Vec3f::Zero());
+    sweep.dt_s.push_back(static_cast<float>(-0.1 + 0.001 * (i + 1)));
+  }
+  const double offset_s = 0.03;
+  const SweepMotion m = sweep_motion(sweep, stream, offset_s);
+  ASSERT_EQ(m.R_world_ins.size(), 11u);
+  for (std::size_t i = 0; i < m.R_world_ins.size(); ++i) {
+    const double t = sweep.t_end_s + offset_s + m.dt0_s + static_cast<double>(i) * m.step_s;
+    EXPECT_LT((m.t_world_ins[i] - circle_pose(t).translation()).norm(), 1e-3) << i;
+    const Vec3 v_true(-4.0 * std::sin(0.4 * t), 4.0 * std::cos(0.4 * t), 0.0);
+    EXPECT_LT((m.v_world[i] - v_true).norm(), 0.01) << i;
+    EXPECT_NEAR(m.w_world[i].z(), 0.4, 1e-3) << i;
+    EXPECT_LT(m.w_world[i].head<2>().norm(), 1e-6) << i;
+  }
+  EXPECT_EQ(m.nearest(-0.1), 0u);
+  EXPECT_EQ(m.nearest(-0.0504), 5u);
+  EXPECT_EQ(m.nearest(0.5), 10u);
+  sweep.t_end_s = 4.0;  // the last pose: the table stays within the stream
+  const SweepMotion end = sweep_motion(sweep, stream, 0.0);
+  EXPECT_LT((end.t_world_ins.back() - circle_pose(4.0).translation()).norm(), 1e-3);
+}
+
 }  // namespace
 }  // namespace insalign

@@ -9,6 +9,25 @@ Iso3 frame_pose(const Sweep& sweep, const PoseStream& poses, double time_offset_
   return poses.T_world_ins(sweep.t_end_s + time_offset_s);
 }
 
+SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double step_s) {
+  const auto [lo, hi] = dt_range(sweep);
+  SweepMotion m;
+  m.dt0_s = lo;
+  m.step_s = step_s;
+  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step_s)) + 1);
+  const double h = 0.005, t_first = poses.t_begin(), t_last = poses.t_end();
+  for (int i = 0; i < n; ++i) {
+    const double t = std::clamp(sweep.t_end_s + time_offset_s + lo + i * step_s, t_first, t_last);
+    const double ta = std::max(t - h, t_first), tb = std::min(t + h, t_last);
+    const Iso3 T = poses.T_world_ins(t), Ta = poses.T_world_ins(ta), Tb = poses.T_world_ins(tb);
+    m.R_world_ins.push_back(T.linear());
+    m.t_world_ins.push_back(T.translation());
+    m.v_world.push_back((Tb.translation() - Ta.translation()) / (tb - ta));
+    m.w_world.push_back(Ta.linear() * so3_log(Ta.linear().transpose() * Tb.linear()) / (tb - ta));
+  }
+  return m;
+}
+
 std::vector<Vec3f> sweep_to_world(const Sweep& sweep, const PoseStream& poses, const Iso3& T_ins_lidar,
                                   const PlaceOptions& options) {
   std::vector<Vec3f> p_world(sweep.size());

@@ -1,6 +1,9 @@
 // Placing sweeps in the world with the INS trajectory, point by point (motion compensation).
 #pragma once
 
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <vector>
 
 #include "core/pose_stream.hpp"
@@ -27,5 +30,22 @@ std::vector<Vec3f> deskew_sweep(const Sweep& sweep, const PoseStream& poses, con
 
 /// T_world_ins at the sweep's frame time (through the time offset).
 Iso3 frame_pose(const Sweep& sweep, const PoseStream& poses, double time_offset_s);
+
+/// The INS pose, velocity and angular velocity (world frame) every step_s over a sweep's point
+/// times, for the Jacobians of stage 2 and the trajectory correction: the points' positions come
+/// from sweep_to_world, these only need to be close.
+struct SweepMotion {
+  double dt0_s = 0.0;    ///< point time (relative to the frame time, dt_s) of entry 0
+  double step_s = 0.01;
+  std::vector<Mat3> R_world_ins;
+  std::vector<Vec3> t_world_ins, v_world, w_world;
+  /// The entry nearest the point time dt_s.
+  std::size_t nearest(double dt_s) const {
+    const double f = std::round((dt_s - dt0_s) / step_s);
+    return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(R_world_ins.size() - 1)));
+  }
+};
+/// Velocities by central differences over 10 ms, inside the poses' span.
+SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double step_s = 0.01);
 
 }  // namespace insalign

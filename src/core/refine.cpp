@@ -118,37 +118,6 @@ std::vector<std::size_t> occupied_per_lidar(const Problem& p, const States& s, d
   return out;
 }
 
-// INS pose and its velocity at knots over a sweep, for the Jacobians (values come from
-// sweep_to_world; these only need to be close).
-struct Knots {
-  double t0 = 0.0, step = 1.0;
-  std::vector<Mat3> R_world_ins;
-  std::vector<Vec3> t_world_ins, v_world, w_world;  // position, velocity, angular velocity (world)
-  int nearest(double dt_from_t0) const {
-    return std::clamp(static_cast<int>(std::lround(dt_from_t0 / step)), 0, static_cast<int>(R_world_ins.size()) - 1);
-  }
-};
-Knots make_knots(const Sweep& sweep, const PoseStream& poses, double time_offset_s) {
-  const auto [lo_f, hi_f] = dt_range(sweep);
-  const double lo = lo_f, hi = hi_f;
-  Knots k;
-  const int n = std::max(2, static_cast<int>(std::ceil((hi - lo) / 0.01)) + 1);
-  k.t0 = lo;
-  k.step = std::max((hi - lo) / (n - 1), 1e-6);
-  const double h = 0.005;
-  for (int i = 0; i < n; ++i) {
-    const double t = sweep.t_end_s + time_offset_s + lo + i * k.step;
-    const Iso3 T = poses.T_world_ins(t);
-    const double ta = std::max(t - h, poses.t_begin()), tb = std::min(t + h, poses.t_end());
-    const Iso3 Ta = poses.T_world_ins(ta), Tb = poses.T_world_ins(tb);
-    k.R_world_ins.push_back(T.linear());
-    k.t_world_ins.push_back(T.translation());
-    k.v_world.push_back((Tb.translation() - Ta.translation()) / (tb - ta));
-    k.w_world.push_back(Ta.linear() * so3_log(Ta.linear().transpose() * Tb.linear()) / (tb - ta));
-  }
-  return k;
-}
-
 struct NormalEquations {
   std::size_t lidars = 1;
   std::vector<Mat7> H;    // lidars x lidars blocks, row-major; only a <= b kept (diagonal: upper triangle)
@@ -261,7 +230,7 @@ void refit_planes(PlaneGrouping& g) {
 }
 
 // d(point-to-plane residual) / d(the point's LiDAR's parameters), at knot kk of its frame.
-Vec7 point_jacobian(const Vec3& normal, const Knots& kn, int kk, const Mat3& R_ins_lidar, const Vec3f& p_lidar,
+Vec7 point_jacobian(const Vec3& normal, const SweepMotion& kn, std::size_t kk, const Mat3& R_ins_lidar, const Vec3f& p_lidar,
                     const Vec3& q_world) {
   const Vec3 a = R_ins_lidar * p_lidar.cast<double>();  // rotated point, INS axes
   const Vec3 m_ins = kn.R_world_ins[kk].transpose() * normal;
@@ -277,10 +246,10 @@ double huber_weight(double residual_m, const RefineConfig& config) {
   return ar <= config.huber_m ? 1.0 : config.huber_m / ar;
 }
 
-std::vector<Knots> frame_knots(const Problem& p, const States& s) {
-  std::vector<Knots> knots(p.frames.size());
+std::vector<SweepMotion> frame_knots(const Problem& p, const States& s) {
+  std::vector<SweepMotion> knots(p.frames.size());
   tbb::parallel_for(std::size_t{0}, p.frames.size(), [&](std::size_t f) {
-    knots[f] = make_knots(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
+    knots[f] = sweep_motion(p.frames[f], *p.poses[p.lidar_of[f]], s[p.lidar_of[f]].time_offset_s);
   });
   return knots;
 }
@@ -337,7 +306,7 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
   }
   gather_world(p_world, g);
   if (!fit) refit_planes(g);
-  const std::vector<Knots> knots = frame_knots(p, s);
+  const std::vector<SweepMotion> knots = frame_knots(p, s);
   const std::size_t n_lidars = p.lidars();
   tbb::combinable<NormalEquations> acc([n_lidars] { return NormalEquations(n_lidars); });
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, g.planes(), 256), [&](const auto& r) {
@@ -349,8 +318,8 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
       for (std::uint32_t m = g.start[k]; m < g.start[k + 1]; ++m) {
         const std::size_t f = g.frame[m];
         const std::size_t l = p.lidar_of[f];
-        const Knots& kn = knots[f];
-        const int kk = kn.nearest(g.dt_s[m] - kn.t0);
+        const SweepMotion& kn = knots[f];
+        const std::size_t kk = kn.nearest(g.dt_s[m]);
         const Vec3 q = g.p_world[m].cast<double>();
         const double res = plane.normal.dot(q - plane.centroid);
         const Vec7 J = point_jacobian(plane.normal, kn, kk, s[l].T_ins_lidar.linear(), g.p_lidar[m], q);
@@ -377,7 +346,7 @@ NormalEquations build_normal_equations(const Problem& p, const States& s, const 
 // common to every frame moves nothing: only what differs between frames counts.
 std::vector<Eigen::MatrixX3d> frame_shift_sensitivity(const Problem& p, const States& s, const RefineConfig& config,
                                                       const PlaneGrouping& g) {
-  const std::vector<Knots> knots = frame_knots(p, s);
+  const std::vector<SweepMotion> knots = frame_knots(p, s);
   const Eigen::Index n_all = kRefineParams * static_cast<Eigen::Index>(p.lidars());
   const auto zero = [&] { return std::vector<Eigen::MatrixX3d>(p.frames.size(), Eigen::MatrixX3d::Zero(n_all, 3)); };
   tbb::combinable<std::vector<Eigen::MatrixX3d>> acc(zero);
@@ -393,10 +362,10 @@ std::vector<Eigen::MatrixX3d> frame_shift_sensitivity(const Problem& p, const St
       for (std::uint32_t m = g.start[k]; m < g.start[k + 1]; ++m) {
         const std::size_t f = g.frame[m];
         const std::size_t l = p.lidar_of[f];
-        const Knots& kn = knots[f];
+        const SweepMotion& kn = knots[f];
         const Vec3 q = g.p_world[m].cast<double>();
         const double w = huber_weight(plane.normal.dot(q - plane.centroid), config);
-        const Vec7 J = point_jacobian(plane.normal, kn, kn.nearest(g.dt_s[m] - kn.t0), s[l].T_ins_lidar.linear(),
+        const Vec7 J = point_jacobian(plane.normal, kn, kn.nearest(g.dt_s[m]), s[l].T_ins_lidar.linear(),
                                       g.p_lidar[m], q);
         if (parts.empty() || parts.back().frame != f) {
           auto it = std::find_if(parts.begin(), parts.end(), [&](const Part& x) { return x.frame == f; });

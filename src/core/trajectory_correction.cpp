@@ -29,7 +29,6 @@ constexpr int kExtrinsic = 7;
 constexpr int kOffset = 6;
 constexpr std::size_t kMinFrames = 10;
 constexpr std::size_t kMaxKnots = 300;  // the normal equations are dense in the knots
-constexpr double kTableStep_s = 0.01;   // pose table over a sweep, for the Jacobians
 constexpr double kLook_s = 0.006;       // the time-offset derivative looks this far beyond a sweep
 constexpr std::uint32_t kAhead = 16;    // map points prefetched this far ahead
 // Gauge: the corrections' mean is unobservable (a world shift; a heading mean is extrinsic yaw).
@@ -88,34 +87,6 @@ void place_all(const Problem& p, const PoseStream& poses, const Iso3& T_ins_lida
     const std::vector<Vec3f> w = sweep_to_world(p.sweeps[f], poses, T_ins_lidar, options);
     std::copy(w.begin(), w.end(), p_world.begin() + static_cast<std::ptrdiff_t>(p.first[f]));
   });
-}
-
-// INS pose, velocity and angular velocity (world) every 10 ms over a sweep, for the Jacobians.
-struct PoseTable {
-  double t0_s = 0.0;  // point time offset dt (LiDAR clock, relative to the sweep end) of entry 0
-  std::vector<Mat3> R_world_ins;
-  std::vector<Vec3> t_world_ins, v_world, w_world;
-  std::size_t nearest(double dt_s) const {
-    const double f = std::round((dt_s - t0_s) / kTableStep_s);
-    return static_cast<std::size_t>(std::clamp(f, 0.0, static_cast<double>(R_world_ins.size() - 1)));
-  }
-};
-PoseTable make_table(const Sweep& sweep, const PoseStream& poses, double offset_s) {
-  PoseTable table;
-  const double lo = dt_range(sweep).first;
-  table.t0_s = lo;
-  const int n = std::max(1, static_cast<int>(std::ceil(-lo / kTableStep_s)) + 1);
-  for (int i = 0; i < n; ++i) {
-    const double t = sweep.t_end_s + offset_s + lo + i * kTableStep_s;
-    const double ta = std::max(t - 0.005, poses.t_begin()), tb = std::min(t + 0.005, poses.t_end());
-    const Iso3 T = poses.T_world_ins(std::clamp(t, poses.t_begin(), poses.t_end()));
-    const Iso3 Ta = poses.T_world_ins(ta), Tb = poses.T_world_ins(tb);
-    table.R_world_ins.push_back(T.linear());
-    table.t_world_ins.push_back(T.translation());
-    table.v_world.push_back((Tb.translation() - Ta.translation()) / (tb - ta));
-    table.w_world.push_back(Ta.linear() * so3_log(Ta.linear().transpose() * Tb.linear()) / (tb - ta));
-  }
-  return table;
 }
 
 // Re-fits the planes of a frozen point grouping to the current map (centroid and normal).
@@ -271,9 +242,9 @@ std::vector<Member> gather_members(const Problem& p, const LocalPlanes& lp) {
 Normal data_normal_equations(const Problem& p, const PoseStream& poses, const TrajectoryCorrection& s,
                              const Layout& layout, double huber_m, const std::vector<Vec3f>& p_world,
                              const LocalPlanes& lp, const std::vector<Member>& members) {
-  std::vector<PoseTable> tables(p.sweeps.size());
+  std::vector<SweepMotion> tables(p.sweeps.size());
   tbb::parallel_for(std::size_t{0}, p.sweeps.size(),
-                    [&](std::size_t f) { tables[f] = make_table(p.sweeps[f], poses, s.time_offset_s); });
+                    [&](std::size_t f) { tables[f] = sweep_motion(p.sweeps[f], poses, s.time_offset_s); });
   const Mat3 R_ins_lidar = s.T_ins_lidar.linear();
   const int size = layout.size();
   tbb::combinable<Normal> acc([size] { return Normal(size); });
@@ -296,7 +267,7 @@ Normal data_normal_equations(const Problem& p, const PoseStream& poses, const Tr
         if (m + kAhead < lp.point_index.size()) __builtin_prefetch(&p_world[lp.point_index[m + kAhead]]);
         const Member& point = members[m];
         const double dt = point.dt_s;
-        const PoseTable& table = tables[point.frame];
+        const SweepMotion& table = tables[point.frame];
         const std::size_t i_table = table.nearest(dt);
         const Vec3 q = p_world[lp.point_index[m]].cast<double>();
         const double res = plane.normal.dot(q - plane.centroid);
