@@ -205,14 +205,7 @@ void expect_near(const Iso3& a, const Iso3& b, double tol, const std::string& wh
   EXPECT_LT((a.linear() - b.linear()).norm(), tol) << what;
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
+const auto& error_of = testing::input_error_of;
 
 // ------------------------------------------------------------------------------------- topics
 

@@ -1,4 +1,5 @@
-// Helpers of the tests that write scratch folders or run the insalign command line.
+// Helpers of the tests that write scratch folders, run the insalign command line or expect an
+// InputError.
 #pragma once
 
 #include <sys/wait.h>
@@ -6,8 +7,11 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <string>
 #include <utility>
+
+#include "core/errors.hpp"
 
 namespace insalign::testing {
 
@@ -29,6 +33,28 @@ inline std::pair<int, std::string> run_command(const std::string& cmd) {
   while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
   const int status = ::pclose(pipe);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+struct RunResult {
+  int exit_code = -1;  ///< -1: did not exit
+  std::string output;  ///< stdout + stderr
+};
+#ifdef INSALIGN_EXE
+/// The insalign command line with these arguments.
+inline RunResult run_insalign(const std::string& args) {
+  auto [code, out] = run_command(std::string(INSALIGN_EXE) + " " + args);
+  return {code, std::move(out)};
+}
+#endif
+
+/// The message of the InputError that f throws, or "(no InputError)".
+inline std::string input_error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "(no InputError)";
 }
 
 inline bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }

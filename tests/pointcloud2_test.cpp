@@ -14,6 +14,7 @@
 #include <map>
 #include <random>
 
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "recording/mcap.hpp"
 #include "recording/message_definitions.hpp"
@@ -62,14 +63,7 @@ struct CloudBuilder {
 
 std::vector<PointField> xyz_fields() { return {{"x", 0, F::kFloat32, 1}, {"y", 4, F::kFloat32, 1}, {"z", 8, F::kFloat32, 1}}; }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
+const auto& error_of = testing::input_error_of;
 
 Sweep random_sweep(std::size_t n, double t_end_s, unsigned seed) {
   std::mt19937 rng(seed);

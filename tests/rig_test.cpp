@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "core/rig.hpp"
 #include "files/extrinsic_json.hpp"
@@ -345,15 +346,7 @@ TEST(Rig, OutputsRoundTrip) {
 TEST(Rig, EndToEndFromTheSimulatorThroughTheCommandLine) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("insalign_rig_e2e_" + std::to_string(::getpid()));
   std::filesystem::remove_all(dir);
-  const auto run = [](const std::string& args) {
-    const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
-    FILE* pipe = ::popen(cmd.c_str(), "r");
-    std::string out;
-    char buf[4096];
-    while (const std::size_t n = std::fread(buf, 1, sizeof buf, pipe)) out.append(buf, n);
-    const int status = ::pclose(pipe);
-    return std::pair<int, std::string>{WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
-  };
+  const auto run = [](const std::string& args) { return testing::run_command(std::string(INSALIGN_EXE) + " " + args); };
   const std::string sim = (dir / "sim").string();
   auto [rc, out] = run("simulate --quiet --seed 5 --rig top:pandar64,left:vlp16@left --azimuth-step-deg 1 --duration-s 40 --out " + sim);
   ASSERT_EQ(rc, 0) << out;

@@ -13,6 +13,7 @@
 #include <functional>
 #include <sstream>
 
+#include "cli_test_util.hpp"
 #include "core/errors.hpp"
 #include "recording/message_definitions.hpp"
 #include "recording/messages.hpp"
@@ -34,14 +35,7 @@ void append(Blob& b, T v) {
   b.insert(b.end(), p, p + sizeof(T));
 }
 
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  }
-  return "(no InputError)";
-}
+const auto& error_of = testing::input_error_of;
 
 // ------------------------------------------------------------------- the cursor, hand-built bytes
 

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 #include <set>
 
+#include "cli_test_util.hpp"
 #include "sim/lidar_model.hpp"
 #include "sim/rig.hpp"
 #include "sim/simulate.hpp"
@@ -186,21 +187,8 @@ TEST(SimRig, LivoxRosetteFillsItsFieldOfViewOverFrames) {
       ASSERT_LE(std::acos(rosette_direction(m, l, f * 1e-5).x()) * kDegPerRad, 35.2 + 1e-9);
 }
 
-struct RunResult {
-  int exit_code = -1;
-  std::string output;
-};
-RunResult run(const std::string& args) {
-  const std::string cmd = std::string(INSALIGN_EXE) + " " + args + " 2>&1";
-  RunResult r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), pipe)) r.output += buf.data();
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+using testing::RunResult;
+const auto& run = testing::run_insalign;
 
 TEST(SimRig, SimulateWritesOneFolderPerLidarAndTheRigGroundTruth) {
   const fs::path dir = fs::temp_directory_path() / ("insalign_rig_" + std::to_string(::getpid()));
