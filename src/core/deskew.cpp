@@ -9,15 +9,16 @@ Iso3 frame_pose(const Sweep& sweep, const PoseStream& poses, double time_offset_
   return poses.T_world_ins(sweep.t_end_s + time_offset_s);
 }
 
-SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double step_s) {
-  const auto [lo, hi] = dt_range(sweep);
+SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double max_step_s) {
+  const auto [lo_f, hi_f] = dt_range(sweep);
+  const double lo = lo_f, hi = hi_f;
   SweepMotion m;
   m.dt0_s = lo;
-  m.step_s = step_s;
-  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step_s)) + 1);
+  const int n = std::max(2, static_cast<int>(std::ceil((hi - lo) / max_step_s)) + 1);
+  m.step_s = std::max((hi - lo) / (n - 1), 1e-6);
   const double h = 0.005, t_first = poses.t_begin(), t_last = poses.t_end();
   for (int i = 0; i < n; ++i) {
-    const double t = std::clamp(sweep.t_end_s + time_offset_s + lo + i * step_s, t_first, t_last);
+    const double t = std::clamp(sweep.t_end_s + time_offset_s + lo + i * m.step_s, t_first, t_last);
     const double ta = std::max(t - h, t_first), tb = std::min(t + h, t_last);
     const Iso3 T = poses.T_world_ins(t), Ta = poses.T_world_ins(ta), Tb = poses.T_world_ins(tb);
     m.R_world_ins.push_back(T.linear());

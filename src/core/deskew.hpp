@@ -31,12 +31,13 @@ std::vector<Vec3f> deskew_sweep(const Sweep& sweep, const PoseStream& poses, con
 /// T_world_ins at the sweep's frame time (through the time offset).
 Iso3 frame_pose(const Sweep& sweep, const PoseStream& poses, double time_offset_s);
 
-/// The INS pose, velocity and angular velocity (world frame) every step_s over a sweep's point
-/// times, for the Jacobians of stage 2 and the trajectory correction: the points' positions come
-/// from sweep_to_world, these only need to be close.
+/// The INS pose, velocity and angular velocity (world frame) at evenly spaced times from a sweep's
+/// first point time to its last, at most max_step_s apart (two at least), for the Jacobians of
+/// stage 2 and the trajectory correction: the points' positions come from sweep_to_world, these
+/// only need to be close.
 struct SweepMotion {
   double dt0_s = 0.0;    ///< point time (relative to the frame time, dt_s) of entry 0
-  double step_s = 0.01;
+  double step_s = 0.01;  ///< between entries
   std::vector<Mat3> R_world_ins;
   std::vector<Vec3> t_world_ins, v_world, w_world;
   /// The entry nearest the point time dt_s.
@@ -46,6 +47,6 @@ struct SweepMotion {
   }
 };
 /// Velocities by central differences over 10 ms, inside the poses' span.
-SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double step_s = 0.01);
+SweepMotion sweep_motion(const Sweep& sweep, const PoseStream& poses, double time_offset_s, double max_step_s = 0.01);
 
 }  // namespace insalign
