@@ -5,8 +5,14 @@
 // the time of the rig against the roof LiDAR alone (cold: the simulator renders the sweeps as a
 // loader would decode them; warm: the same stores again, sweeps cached: the calibration alone).
 //
-//   build/bench/rig_accuracy --seeds 10 [--scene default|recorded|both] [--azimuth-step-deg 0.2]
+// Also each LiDAR's error in units of its stated stddev (the rig's honesty, as the coverage study
+// counts it for one LiDAR).
+//
+//   build/bench/rig_accuracy --seeds 10 [--scene default|recorded|both|SCENARIO] [--azimuth-step-deg 0.2]
 //     [--relative-tz 0|1] [--shared-stage3 0|1] [--ins-noise-scale S] [--no-alone] [--no-timing]
+//     [--set KEY=VALUE ...]
+// SCENARIO: any of bench/scenarios.hpp (drift-position: the INS walking 5 mm/sqrt(s), as the
+// drift study's INS).
 #include <CLI/CLI.hpp>
 #include <fmt/core.h>
 #include <sys/resource.h>
@@ -18,6 +24,7 @@
 #include "core/rig.hpp"
 #include "scenarios.hpp"
 #include "sim/world_dataset.hpp"
+#include "tool/tool_config.hpp"
 
 namespace insalign {
 namespace {
@@ -50,6 +57,8 @@ bool within_target(const Vec6& e) { return e[0] <= 0.01 && e[1] <= 0.01 && e.tai
 
 struct SeedRun {
   std::vector<Vec6> joint, alone;   // per LiDAR |error| (m, deg); alone empty row = undetermined
+  std::vector<Vec6> sigmas;         // per LiDAR |joint error| / stated stddev (NaN: no stddev)
+  std::vector<bool> corrected;      // per LiDAR: the INS trajectory correction was applied
   std::vector<bool> alone_ok;
   double worst_sigma = 0.0;         // LiDAR-to-LiDAR error / stated stddev, worst DOF and pair
   std::string worst_pair;           // which pair and DOF, its error and stddev
@@ -129,7 +138,15 @@ SeedRun run_seed(const std::string& scene, std::uint64_t seed, const Options& o)
   run.rig_warm_s = now_s() - t;
   run.rig_warm_cpu_s = cpu_s() - c;
   for (std::size_t l = 0; l < names.size(); ++l) {
-    run.joint.push_back(error_vec(rig.lidars[l].result.T_ins_lidar, world->lidars[l].T_ins_lidar_true));
+    const CalibrationResult& r = rig.lidars[l].result;
+    run.joint.push_back(error_vec(r.T_ins_lidar, world->lidars[l].T_ins_lidar_true));
+    Vec6 sigmas;
+    for (int i = 0; i < 6; ++i) {
+      const double unit = i < 3 ? 1.0 : kDegPerRad;  // error_vec: m and deg; stddev: m and rad
+      sigmas[i] = std::isfinite(r.stddev[i]) && r.stddev[i] > 0 ? run.joint.back()[i] / (unit * r.stddev[i]) : std::nan("");
+    }
+    run.sigmas.push_back(sigmas);
+    run.corrected.push_back(r.trajectory.applied);
     run.own_z.push_back(std::abs(rig.lidars[l].own_stage3_tz_m - world->lidars[l].T_ins_lidar_true.translation().z()));
     if (rig.lidars[l].joint_with.empty()) run.notes.push_back(names[l] + ": " + rig.lidars[l].joint_note);
     const RigMapCheck& m = rig.lidars[l].map_check;
@@ -225,7 +242,16 @@ void report(const std::string& scene, const std::vector<std::string>& names, con
     fmt::print("worst pair: {:.2f} sigma, {}\n", r.worst_sigma, r.worst_pair);
   }
   const double n = static_cast<double>(runs.size());
+  int honest = 0, stated = 0, corrected = 0;
+  for (const SeedRun& r : runs)
+    for (std::size_t l = 0; l < r.sigmas.size(); ++l) {
+      corrected += r.corrected[l];
+      for (int i = 0; i < 6; ++i)
+        if (std::isfinite(r.sigmas[l][i])) honest += r.sigmas[l][i] <= 3.0, ++stated;
+    }
   fmt::print("\nevery LiDAR within 0.03 deg per axis and 1 cm in x, y (joint): {} of {}\n", within, total);
+  fmt::print("(LiDAR, DOF) errors within 3 stated stddev: {} of {}; INS trajectory correction applied for {} of {} LiDAR runs\n",
+             honest, stated, corrected, total);
   fmt::print("LiDAR-to-LiDAR vs truth: worst |error| / stated stddev = {:.2f} (any pair, any DOF)\n", sigma);
   fmt::print("loop T_a_b T_b_c T_c_a: worst {:.2e} m, {:.2e} deg (identity by construction: every LiDAR is tied to the one INS)\n",
              loop_m, loop_deg);
@@ -247,9 +273,10 @@ int main(int argc, char** argv) {
   Options o;
   o.trajectory = "../shared/data/opencalib-sample/NovAtel-pose-lidar-time.txt";
   bool no_alone = false, no_timing = false;
+  std::vector<std::string> assignments;
   app.add_option("--seeds", seeds, "seeds per scene");
   app.add_option("--first-seed", first_seed, "first seed");
-  app.add_option("--scene", scene, "default, recorded or both");
+  app.add_option("--scene", scene, "default, recorded, both or another scenario of bench/scenarios.hpp (drift-position, ...)");
   app.add_option("--trajectory", o.trajectory, "pose file of the recorded trajectory");
   app.add_option("--azimuth-step-deg", o.azimuth_step_deg, "simulator horizontal resolution");
   app.add_option("--duration-s", o.duration_s, "drive length (0: the trajectory's, ~1000 frames)");
@@ -258,13 +285,25 @@ int main(int argc, char** argv) {
   app.add_option("--ins-noise-scale", o.ins_noise_scale, "INS noise scale of the simulator (default: the scenario's; 0: perfect poses)");
   app.add_flag("--no-alone", no_alone, "skip the LiDARs alone (the alone rows print nan)");
   app.add_flag("--no-timing", no_timing, "skip the warm rig run and the roof alone (no times)");
+  app.add_option("--set", assignments, "override a calibration parameter (keys: insalign config --dump)");
   CLI11_PARSE(app, argc, argv);
+  try {  // --relative-tz and --shared-stage3 win over --set
+    const PipelineConfig set = cli::tool_config_with(assignments).calibrate;
+    const JointConfig joint = o.config.refine.joint;
+    o.config = set;
+    o.config.refine.joint.relative_tz = joint.relative_tz;
+    o.config.refine.joint.shared_stage3 = joint.shared_stage3;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "{}\n", e.what());
+    return 2;
+  }
   o.alone = !no_alone, o.timing = !no_timing;
   const std::string& trajectory = o.trajectory;
   std::vector<std::string> scenes;
   if (scene == "both" || scene == "default") scenes.push_back("default");
-  if (scene == "both" || scene == "recorded") {
-    if (std::filesystem::exists(trajectory)) scenes.push_back("recorded");
+  const bool other = scene != "both" && scene != "default";  // recorded or another scenario along it
+  if (scene == "both" || other) {
+    if (std::filesystem::exists(trajectory)) scenes.push_back(other ? scene : "recorded");
     else fmt::print("recorded trajectory {} missing: skipped\n", trajectory);
   }
   const std::vector<std::string> names = {"top", "left", "right", "front"};

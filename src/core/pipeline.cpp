@@ -41,58 +41,6 @@ void run_refine(const FrameStore& store, const std::vector<std::size_t>& frames,
     if (std::isfinite(r.refine->outcome.stddev[i])) r.stddev[i] = r.refine->outcome.stddev[i];
 }
 
-// The INS trajectory corrected jointly with the extrinsic: stage 2 takes the INS poses as exact,
-// and a drifting INS biases it. Only the extrinsic is taken from it: stage 3 and the repeatability
-// study keep the reported poses: fiducials are absolute and the correction's mean is a gauge
-// choice (held by a 1 cm prior it walked 0.73 m and took stage 3's tz with it; it is pinned now:
-// TrajectoryCorrection.CorrectedPosesKeepTheFiducialTz).
-void run_trajectory_correction(const FrameStore& store, const std::vector<std::size_t>& refine_frames,
-                               const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
-  RefineConfig refine = config.refine;
-  // The time offset stays stage 2's: along the travel it moves the map as the knots do, and
-  // estimated with them its stddev came out 2.5x its error (median) on 150 simulated drifting
-  // drives, for errors no smaller (bench/results/honest.md).
-  refine.estimate_time_offset = false;
-  if (config.trajectory.hold_lever_arm) refine.held[0] = refine.held[1] = true;
-  progress("trajectory", 0.0);
-  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen,
-                                    refine_frames);
-  progress("trajectory", 1.0);
-  const auto measured_drift = [&] {
-    return random_walk_stddev(*r.refine, r.trajectory.correction_rms_axes_m,
-                              r.trajectory.t_s.back() - r.trajectory.t_s.front());
-  };
-  const bool measured = r.refine && r.trajectory.t_s.size() >= 2;  // the correction was estimated
-  if (!r.trajectory.applied) {
-    // The answer stays stage 2's on the INS poses taken as exact, and every DOF of it carries the
-    // slow INS error the correction measured: on real scans (BALM, an INS from LiDAR odometry)
-    // a 53 mm RMS correction too weak to apply left yaw 0.13 deg off at a stated 0.04, and
-    // `check` called the true extrinsic `drifted` (bench/results/check.md).
-    if (measured) {
-      const auto drift = measured_drift();
-      for (int i : {0, 1, 3, 4, 5}) r.ins_drift_stddev[i] = drift[i];
-      if (r.refine->time_offset_estimated) r.ins_drift_stddev[6] = drift[6];
-    }
-    return;
-  }
-  r.T_ins_lidar = r.trajectory.T_ins_lidar;
-  r.time_offset_s = r.trajectory.time_offset_s;
-  if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
-  for (int i : {0, 1, 3, 4, 5})
-    if (!refine.held[static_cast<std::size_t>(i)]) r.stddev[i] = r.trajectory.outcome.stddev[i];
-  // What the correction kept from stage 2 still carries the drift it measured: a 20 mm lever-arm
-  // change read as 5-10 mm at a stated 4-7 mm on drifting drives (bench/results/check.md).
-  // Added to the stddev, not a floor: the drift common to the whole drive is the part the
-  // repeatability segments' spread cannot hold.
-  if (measured) {
-    const auto drift = measured_drift();
-    for (int i = 0; i < 6; ++i)
-      if (refine.held[static_cast<std::size_t>(i)]) r.ins_drift_stddev[i] = drift[i];
-    if (!refine.estimate_time_offset) r.ins_drift_stddev[6] = drift[6];
-  }
-  r.warnings.push_back(r.trajectory.decision);
-}
-
 // The formal stddev treats every point as independent and comes out 10-50x below the
 // benchmark's errors; the segments' disagreement is an honest floor (core/repeatability), for
 // the time offset too.
@@ -191,6 +139,58 @@ PipelineConfig hold_undetermined_dofs(const PipelineConfig& config, CalibrationR
 }
 
 }  // namespace
+
+// The INS trajectory corrected jointly with the extrinsic: stage 2 takes the INS poses as exact,
+// and a drifting INS biases it. Only the extrinsic is taken from it: stage 3 and the repeatability
+// study keep the reported poses: fiducials are absolute and the correction's mean is a gauge
+// choice (held by a 1 cm prior it walked 0.73 m and took stage 3's tz with it; it is pinned now:
+// TrajectoryCorrection.CorrectedPosesKeepTheFiducialTz).
+void run_trajectory_correction(const FrameStore& store, const std::vector<std::size_t>& refine_frames,
+                               const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r) {
+  RefineConfig refine = config.refine;
+  // The time offset stays stage 2's: along the travel it moves the map as the knots do, and
+  // estimated with them its stddev came out 2.5x its error (median) on 150 simulated drifting
+  // drives, for errors no smaller (bench/results/honest.md).
+  refine.estimate_time_offset = false;
+  if (config.trajectory.hold_lever_arm) refine.held[0] = refine.held[1] = true;
+  progress("trajectory", 0.0);
+  r.trajectory = correct_trajectory(store, r.T_ins_lidar, r.time_offset_s, config.trajectory, refine, &r.ins_screen,
+                                    refine_frames);
+  progress("trajectory", 1.0);
+  const auto measured_drift = [&] {
+    return random_walk_stddev(*r.refine, r.trajectory.correction_rms_axes_m,
+                              r.trajectory.t_s.back() - r.trajectory.t_s.front());
+  };
+  const bool measured = r.refine && r.trajectory.t_s.size() >= 2;  // the correction was estimated
+  if (!r.trajectory.applied) {
+    // The answer stays stage 2's on the INS poses taken as exact, and every DOF of it carries the
+    // slow INS error the correction measured: on real scans (BALM, an INS from LiDAR odometry)
+    // a 53 mm RMS correction too weak to apply left yaw 0.13 deg off at a stated 0.04, and
+    // `check` called the true extrinsic `drifted` (bench/results/check.md).
+    if (measured) {
+      const auto drift = measured_drift();
+      for (int i : {0, 1, 3, 4, 5}) r.ins_drift_stddev[i] = drift[i];
+      if (r.refine->time_offset_estimated) r.ins_drift_stddev[6] = drift[6];
+    }
+    return;
+  }
+  r.T_ins_lidar = r.trajectory.T_ins_lidar;
+  r.time_offset_s = r.trajectory.time_offset_s;
+  if (refine.estimate_time_offset) r.time_offset_stddev_s = r.trajectory.time_offset_stddev_s;
+  for (int i : {0, 1, 3, 4, 5})
+    if (!refine.held[static_cast<std::size_t>(i)]) r.stddev[i] = r.trajectory.outcome.stddev[i];
+  // What the correction kept from stage 2 still carries the drift it measured: a 20 mm lever-arm
+  // change read as 5-10 mm at a stated 4-7 mm on drifting drives (bench/results/check.md).
+  // Added to the stddev, not a floor: the drift common to the whole drive is the part the
+  // repeatability segments' spread cannot hold.
+  if (measured) {
+    const auto drift = measured_drift();
+    for (int i = 0; i < 6; ++i)
+      if (refine.held[static_cast<std::size_t>(i)]) r.ins_drift_stddev[i] = drift[i];
+    if (!refine.estimate_time_offset) r.ins_drift_stddev[6] = drift[6];
+  }
+  r.warnings.push_back(r.trajectory.decision);
+}
 
 FrameStore make_frame_store(const Dataset& data, const PipelineConfig& config) {
   SweepFilter base = finest_of({config.init.filter, config.rough.filter, config.refine.filter});

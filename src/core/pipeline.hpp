@@ -138,6 +138,12 @@ void load_check_frames(const FrameStore& store, const PipelineConfig& config, do
 /// (the repeatability study's stage 1 leaves them out too).
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
                                CalibrationResult& r, FrameGroups& groups);
+/// After stage 2 (r.refine set): the INS trajectory corrected jointly with the extrinsic, as
+/// config.trajectory decides (r.ins_screen: the drift evidence). Applied, r takes the correction's
+/// extrinsic and stddevs; either way r.ins_drift_stddev holds the drift it measured where r keeps
+/// the INS poses as exact. r.trajectory records it.
+void run_trajectory_correction(const FrameStore& store, const std::vector<std::size_t>& refine_frames,
+                               const PipelineConfig& config, const PipelineProgress& progress, CalibrationResult& r);
 /// Yaw's stddev with the INS's heading error (config.ins_heading_sigma_deg) added: the last step,
 /// after anything that compares LiDARs of one INS (their heading error is common).
 void add_ins_heading_error(const PipelineConfig& config, CalibrationResult& r);

@@ -176,18 +176,6 @@ void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameG
     if (config.ins_screen.from_lidar) rig.lidars[l].ins_checks_by = rig.lidars[ref].name;
     if (progress) progress("screen", double(l + 1) / double(stores.size()));
   }
-  // Rigs take the INS poses as exact (no trajectory correction yet): say so where it matters.
-  const TrajectoryCorrectionMode mode = config.trajectory.mode;
-  const DriftEvidence drift = drift_evidence(stores[ref], checks, config.trajectory);
-  if (mode == TrajectoryCorrectionMode::kAuto || mode == TrajectoryCorrectionMode::kAlways) {
-    rig.warnings.push_back("rig: the INS trajectory correction is not applied to rigs (trajectory.mode ignored)");
-  } else if (mode == TrajectoryCorrectionMode::kIfDrifting && drift.drifting) {
-    rig.warnings.push_back(fmt::format(
-        "rig: {}, but the INS trajectory correction is not applied to rigs: every LiDAR's extrinsic takes the INS "
-        "poses as exact. Calibrate LiDAR '{}' alone for the corrected answer, or drive with the INS RTK fixed "
-        "throughout",
-        drift.message, rig.lidars[ref].name));
-  }
 }
 
 std::vector<std::uint64_t> voxel_keys(const std::vector<Vec3f>& p_world, double voxel_m) {
@@ -375,12 +363,69 @@ std::vector<JointRefineResult> refine_groups(const std::vector<FrameStore>& stor
     if (joint.outcome.status == StageStatus::kUndetermined) throw UnobservableError(joint.outcome.message);
     for (std::size_t l : groups[g]) {
       rig.lidars[l].group = g;
-      for (const std::string& w : warnings)
-        if (w.starts_with(prefix(rig.lidars[l].name))) rig.lidars[l].result.warnings.push_back(w);
+      std::vector<std::string>& own = rig.lidars[l].result.warnings;
+      for (const std::string& w : warnings)  // once: stage 2 runs again on a corrected trajectory
+        if (w.starts_with(prefix(rig.lidars[l].name)) && std::find(own.begin(), own.end(), w) == own.end()) own.push_back(w);
     }
     take_joint(joint, groups[g], config, rig);
   }
   return out;
+}
+
+// The INS trajectory correction, estimated with the LiDAR whose checks ran (the most planes)
+// exactly as for one LiDAR. Applied, its trajectory is the rig's: every group's stage 2 runs again
+// on the corrected poses, and every stddev takes the correction's own in (the trajectory's errors
+// are common to the rig); stage 3 and the repeatability study keep the reported poses, as for one
+// LiDAR. Not applied, every LiDAR carries the drift it measured, as the reference does.
+void correct_rig_trajectory(const std::vector<FrameStore>& stores, const std::vector<std::vector<std::size_t>>& groups,
+                            const PipelineConfig& config, const PipelineProgress& progress, std::vector<NearPoints>& near,
+                            std::vector<std::vector<RefineLidar>>& inputs, std::vector<JointRefineResult>& joints,
+                            RigResult& rig) {
+  const std::size_t ref = most_planes(all_lidars(stores.size()), rig);
+  const std::string& name = rig.lidars[ref].name;
+  const std::vector<std::size_t>& members = groups[rig.lidars[ref].group];
+  const std::size_t slot = static_cast<std::size_t>(std::find(members.begin(), members.end(), ref) - members.begin());
+  CalibrationResult& rr = rig.lidars[ref].result;
+  run_trajectory_correction(stores[ref], inputs[rig.lidars[ref].group][slot].frames, config,
+                            lidar_progress(progress, name), rr);
+  const TrajectoryCorrection tc = rr.trajectory;
+  if (tc.t_s.size() < 2) return;  // not estimated: off, an INS that does not drift, too few frames
+  const auto share = [&](CalibrationResult& r) {
+    r.trajectory = tc;
+    r.trajectory.T_ins_lidar = r.T_ins_lidar;
+    r.trajectory.time_offset_s = r.time_offset_s;  // its knots' times read on this LiDAR's clock
+    r.trajectory.decision += fmt::format(" (estimated with LiDAR '{}')", name);
+  };
+  if (!tc.applied) {
+    const double span_s = tc.t_s.back() - tc.t_s.front();
+    for (std::size_t l = 0; l < stores.size(); ++l) {
+      CalibrationResult& r = rig.lidars[l].result;
+      if (l != ref && r.refine) {
+        const auto drift = random_walk_stddev(*r.refine, tc.correction_rms_axes_m, span_s);
+        for (int i : {0, 1, 3, 4, 5}) r.ins_drift_stddev[i] = drift[i];
+        if (r.refine->time_offset_estimated) r.ins_drift_stddev[6] = drift[6];
+      }
+      share(r);
+    }
+    rig.warnings.push_back("rig: " + rig.lidars[ref].result.trajectory.decision);
+    return;
+  }
+  std::vector<FrameStore> corrected;
+  for (const FrameStore& store : stores) corrected.push_back(store.with(corrected_poses(store.poses(), tc), store.excluded()));
+  std::vector<std::vector<RefineLidar>> again;
+  joints = refine_groups(corrected, groups, config, progress, near, again, rig);
+  for (std::size_t g = 0; g < groups.size(); ++g)
+    for (std::size_t k = 0; k < groups[g].size(); ++k) again[g][k].store = &stores[groups[g][k]];
+  inputs = std::move(again);
+  for (std::size_t l = 0; l < stores.size(); ++l) {
+    CalibrationResult& r = rig.lidars[l].result;
+    for (int i : {0, 1, 3, 4, 5})
+      if (std::isfinite(r.stddev[i]) && std::isfinite(tc.outcome.stddev[i])) r.stddev[i] = std::hypot(r.stddev[i], tc.outcome.stddev[i]);
+    r.ins_drift_stddev.setZero();  // stage 2 estimated everything again on the corrected poses
+    share(r);
+  }
+  rig.warnings.push_back(fmt::format("rig: {}: every LiDAR's stage 2 ran again on the corrected trajectory",
+                                     rig.lidars[ref].result.trajectory.decision));
 }
 
 void describe_groups(const std::vector<std::vector<std::size_t>>& groups, RigResult& rig) {
@@ -771,6 +816,7 @@ RigResult run_rig_calibration(const std::vector<FrameStore>& stores, const std::
   if (config.run_refine) {
     const auto t_joint = std::chrono::steady_clock::now();
     joints = refine_groups(screened, groups, config, progress, near, inputs, rig);
+    correct_rig_trajectory(screened, groups, config, progress, near, inputs, joints, rig);
     rig.joint_wall_time_s = seconds_since(t_joint);
   }
   if (const std::string why = undetermined_message(rig); !why.empty()) throw UnobservableError(why);
