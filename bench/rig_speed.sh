@@ -39,8 +39,8 @@ for ((r = 0; r < repeat; ++r)); do
   run rig-after "$bin" "${rig_args[@]}"
   [[ -z $before ]] || run rig-before "$before" "${rig_args[@]}"
   run roof-after "$bin" "${roof_args[@]}"
-  # The rig does not run the INS trajectory correction; the roof alone evaluates it wherever its
-  # map offsets say the INS may drift (a TUM pose file states no accuracy): without it, too.
+  # Both estimate the INS trajectory correction wherever the map offsets say the INS may drift
+  # (a TUM pose file states no accuracy; the rig with its reference LiDAR): the roof without it too.
   run roof-off "$bin" "${roof_args[@]}" --set trajectory.mode=off
   [[ -z $before ]] || run roof-before "$before" "${roof_args[@]}"
 done

@@ -15,7 +15,14 @@ turns: the information on (yaw, lx, ly) is the integral of J^T J / q^2 with J's 
 dR/dt e_x and dR/dt e_y (horizontal parts), and the floor is its inverse's diagonal (about
 q / sqrt(int yaw_rate^2 dt) per axis).
 
+Roll and pitch have a floor of the same kind when each INS pose carries white attitude noise of
+a (deg, per axis): an extrinsic roll turned by d is every frame's INS roll turned by d, so the data
+fix the extrinsic only up to the mean attitude error of the frames a method uses: sigma a / sqrt(n)
+for n frames weighed alike (more with unequal weights), a / sqrt(poses) for a method using every
+pose's frame.
+
   python3 bench/yaw_floor.py POSES [q_m_per_sqrt_s=0.005] [runs=10] [bound_deg=0.01] [h_deg_per_sqrt_s=0]
+                                   [a_tilt_deg=0] [frames_used=240]
 
 POSES: an OpenCalib pose file (name = yyyy-mm-dd-hh-mm-ss-mmm, then the 3x4 T_world_ins row-major)
 or a TUM file (t x y z qx qy qz qw).
@@ -75,6 +82,8 @@ def main():
     runs = int(sys.argv[3]) if len(sys.argv) > 3 else 10
     bound = float(sys.argv[4]) if len(sys.argv) > 4 else 0.01
     h = float(sys.argv[5]) if len(sys.argv) > 5 else 0.0
+    a_tilt = float(sys.argv[6]) if len(sys.argv) > 6 else 0.0
+    frames_used = int(sys.argv[7]) if len(sys.argv) > 7 else 240
     p = read_positions(path)
     v2dt = 0.0
     for (t0, x0, y0, _), (t1, x1, y1, _) in zip(p, p[1:]):
@@ -96,6 +105,11 @@ def main():
         p5 = math.erf(0.005 / (sd * math.sqrt(2.0)))
         print(f'lever arm {axis} floor sigma: {1e3 * sd:.2f} mm; a perfect method: MAE {1e3 * sd * math.sqrt(2 / math.pi):.2f} mm, '
               f'all {runs} runs within 5 mm with probability {p5 ** runs:.3f}')
+    if a_tilt > 0:
+        for label, n in ((f'{frames_used} frames', frames_used), (f'every pose ({len(p)})', len(p))):
+            sd = a_tilt / math.sqrt(n)
+            print(f'roll / pitch floor with {label}: sigma {sd:.5f} deg, MAE {sd * math.sqrt(2 / math.pi):.5f} deg '
+                  f'(white attitude noise {a_tilt} deg per pose)')
 
 
 if __name__ == '__main__':
