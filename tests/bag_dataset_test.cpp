@@ -42,7 +42,7 @@ constexpr double kSpeed = 5.0;  // m/s
 constexpr double kPi = 3.14159265358979323846;
 const GeodeticPoint kOrigin{48.1, 11.5, 500.0};
 
-fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_bagds_", tag); }
+testing::ScratchDir scratch_dir(const std::string& tag) { return {"insalign_bagds_", tag}; }
 
 constexpr double kFirstInsS = kT0 - 0.1;  // the first INS record: the world's origin
 
@@ -210,7 +210,8 @@ const auto& error_of = testing::input_error_of;
 // ------------------------------------------------------------------------------------- topics
 
 TEST(BagDataset, OneLidarTopicIsChosenSeveralNeedLidarTopic) {
-  const fs::path dir = fresh_dir("topics");
+  const testing::ScratchDir scratch = scratch_dir("topics");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/a/points", 20);
   add_clouds(b, "/b", 15);
@@ -248,7 +249,8 @@ TEST(BagDataset, OneLidarTopicIsChosenSeveralNeedLidarTopic) {
 }
 
 TEST(BagDataset, CloudWithoutXyzIsAnInputErrorNamingTheTopic) {
-  const fs::path dir = fresh_dir("noxyz");
+  const testing::ScratchDir scratch = scratch_dir("noxyz");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   const std::uint32_t id = b.topic("/broken", "sensor_msgs/PointCloud2");
   for (int k = 0; k < 8; ++k) {
@@ -263,7 +265,8 @@ TEST(BagDataset, CloudWithoutXyzIsAnInputErrorNamingTheTopic) {
 }
 
 TEST(BagDataset, TwoInsTopicsOfTheBestKindAreAmbiguous) {
-  const fs::path dir = fresh_dir("ins_ambiguous");
+  const testing::ScratchDir scratch = scratch_dir("ins_ambiguous");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 10);
   add_ins(b, InsSourceKind::kOdometry, 0.0, 1.2);
@@ -298,7 +301,8 @@ struct InsCase {
 };
 
 TEST(BagDataset, EveryInsSourceGivesTheTrajectoryInItsInsFrame) {
-  const fs::path dir = fresh_dir("ins_types");
+  const testing::ScratchDir scratch = scratch_dir("ins_types");
+  const fs::path dir = scratch.path();
   const InsCase cases[] = {{InsSourceKind::kInspvax, true, "NovAtel INSPVAX"},
                            {InsSourceKind::kInspva, true, "NovAtel INSPVA"},
                            {InsSourceKind::kNavSatFixImu, false, "NavSatFix + Imu"},
@@ -334,7 +338,8 @@ TEST(BagDataset, EveryInsSourceGivesTheTrajectoryInItsInsFrame) {
 }
 
 TEST(BagDataset, InspvaxQualityAndReportFields) {
-  const fs::path dir = fresh_dir("quality");
+  const testing::ScratchDir scratch = scratch_dir("quality");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 10);
   add_ins(b, InsSourceKind::kInspvax, kPi / 2, 1.2);
@@ -365,7 +370,8 @@ TEST(BagDataset, InspvaxQualityAndReportFields) {
 // ----------------------------------------------------------------------------------------- TF
 
 TEST(BagDataset, TfChainWithAndWithoutFrames) {
-  const fs::path dir = fresh_dir("tf");
+  const testing::ScratchDir scratch = scratch_dir("tf");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 20);
   const std::uint32_t tf = b.topic("/tf", "tf2_msgs/TFMessage"), tf_static = b.topic("/tf_static", "tf2_msgs/TFMessage");
@@ -406,7 +412,8 @@ TEST(BagDataset, TfChainWithAndWithoutFrames) {
 }
 
 TEST(BagDataset, TfWithTwoMovingEndsIsAmbiguous) {
-  const fs::path dir = fresh_dir("tf_ambiguous");
+  const testing::ScratchDir scratch = scratch_dir("tf_ambiguous");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 10);
   const std::uint32_t tf = b.topic("/tf", "tf2_msgs/TFMessage");
@@ -431,7 +438,8 @@ TEST(BagDataset, TfWithTwoMovingEndsIsAmbiguous) {
 // ------------------------------------------------------------------------------ NavSatFix + Imu
 
 TEST(BagDataset, NavSatFixAndImuArePairedByStamp) {
-  const fs::path dir = fresh_dir("pairing");
+  const testing::ScratchDir scratch = scratch_dir("pairing");
+  const fs::path dir = scratch.path();
   const double yaw_rate = 0.2;  // rad/s: slerp between Imu samples is exact for a constant rate
   const auto R_true = [&](double t) { return Mat3(Eigen::AngleAxisd(yaw_rate * (t - kT0), Vec3::UnitZ())); };
   for (const bool same_stamps : {true, false}) {
@@ -481,7 +489,8 @@ TEST(BagDataset, ExplainsWholeSecondClockGaps) {
 }
 
 TEST(BagDataset, ClockGapsAreInputErrorsWithBothRanges) {
-  const fs::path dir = fresh_dir("clock");
+  const testing::ScratchDir scratch = scratch_dir("clock");
+  const fs::path dir = scratch.path();
   for (const double shift : {18.0, 1000.5}) {
     BagBuilder b;
     add_clouds(b, "/points", 30);
@@ -518,7 +527,8 @@ TEST(BagDataset, ClockGapsAreInputErrorsWithBothRanges) {
 
 // When the record times are copies of the stamps (converted data sets), only the ranges can tell.
 TEST(BagDataset, ClockGapFromTheRangesWhenRecordTimesAreTheStamps) {
-  const fs::path dir = fresh_dir("clock_copied");
+  const testing::ScratchDir scratch = scratch_dir("clock_copied");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   const std::uint32_t points = b.topic("/points", "sensor_msgs/PointCloud2"), odom = b.topic("/odom", "nav_msgs/Odometry");
   for (int k = 0; k < 30; ++k) {
@@ -544,7 +554,8 @@ TEST(BagDataset, ClockGapFromTheRangesWhenRecordTimesAreTheStamps) {
 }
 
 TEST(BagDataset, AnInsThatStopsEarlyIsNotAClockError) {
-  const fs::path dir = fresh_dir("ins_short");
+  const testing::ScratchDir scratch = scratch_dir("ins_short");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 30);
   add_ins(b, InsSourceKind::kOdometry, 0.0, 0.85);  // covers 8 of 30 frames; the clocks agree
@@ -561,7 +572,8 @@ TEST(BagDataset, AnInsThatStopsEarlyIsNotAClockError) {
 }
 
 TEST(BagDataset, FramesHangingOverTheInsEndsAreSkippedNotFatal) {
-  const fs::path dir = fresh_dir("overhang");
+  const testing::ScratchDir scratch = scratch_dir("overhang");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 30);               // 0.1 .. 3.0 s
   add_ins(b, InsSourceKind::kOdometry, 0.0, 2.5);  // -0.1 .. 2.5 s
@@ -601,7 +613,8 @@ class CountingReader final : public BagReader {
 };
 
 TEST(BagDataset, CloudsAreDecodedOnlyWhenLoaded) {
-  const fs::path dir = fresh_dir("lazy");
+  const testing::ScratchDir scratch = scratch_dir("lazy");
+  const fs::path dir = scratch.path();
   for (const BagFormat format : {BagFormat::kRos1, BagFormat::kMcap, BagFormat::kDb3}) {
     BagBuilder b(format);
     add_clouds(b, "/points", 40, DriverLayout::kOuster);
@@ -627,7 +640,8 @@ TEST(BagDataset, CloudsAreDecodedOnlyWhenLoaded) {
 // ROS 1 lz4 chunks are decompressed only as far as a read needs (the INS messages before a cloud):
 // every read and prefix, in any order, gives the bytes a read of the whole chunk gives.
 TEST(BagDataset, Ros1PartialChunkReadsGiveTheSameBytes) {
-  const fs::path dir = fresh_dir("ros1_partial");
+  const testing::ScratchDir scratch = scratch_dir("ros1_partial");
+  const fs::path dir = scratch.path();
   for (const std::size_t chunk_bytes : {std::size_t{768 * 1024}, std::size_t{2048}}) {
     BagBuilder b(BagFormat::kRos1);
     const std::uint32_t cloud = b.topic("/points", "sensor_msgs/PointCloud2"), odom = b.topic("/odom", "nav_msgs/Odometry");
@@ -710,7 +724,8 @@ TEST(BagDataset, Lz4PrefixesOfLinkedMultiBlockFrames) {
 // --------------------------------------------------------------------------- geodetic fiducials
 
 TEST(BagDataset, GeodeticFiducialsGoThroughTheInsEnuFrame) {
-  const fs::path dir = fresh_dir("fiducials");
+  const testing::ScratchDir scratch = scratch_dir("fiducials");
+  const fs::path dir = scratch.path();
   BagBuilder b;
   add_clouds(b, "/points", 10);
   add_ins(b, InsSourceKind::kInspva, kPi / 2, 1.2);
@@ -741,7 +756,8 @@ TEST(BagDataset, GeodeticFiducialsGoThroughTheInsEnuFrame) {
 }
 
 TEST(BagDataset, NovatelGpsMsgsNamesReadAsTheOem7Ones) {
-  const fs::path dir = fresh_dir("novatel_gps");
+  const testing::ScratchDir scratch = scratch_dir("novatel_gps");
+  const fs::path dir = scratch.path();
   for (const bool inspvax : {true, false}) {
     BagBuilder b(BagFormat::kRos1);
     add_clouds(b, "/points", 10);

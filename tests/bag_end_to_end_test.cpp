@@ -34,7 +34,7 @@ using cli::LidarConvention;
 using io::bag::BagFormat;
 using io::bag::Compression;
 
-fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_bag_e2e_", tag); }
+testing::ScratchDir scratch_dir(const std::string& tag) { return {"insalign_bag_e2e_", tag}; }
 
 // The PCD folder exactly as cmd_simulate writes it (binary PCDs with absolute timestamps, the
 // 100 Hz TUM pose file, init-extrinsic.json, fiducials.txt), read back through load_dataset.
@@ -139,7 +139,8 @@ TEST(BagEndToEnd, EveryFormatConventionAndInsMessageGivesThePcdFoldersData) {
   c.lidar_model = "vlp16";
   c.time_offset_s = 0.02;
   const sim::World world = sim::build_world(c);
-  const fs::path dir = fresh_dir("sweeps");
+  const testing::ScratchDir scratch = scratch_dir("sweeps");
+  const fs::path dir = scratch.path();
   const Dataset pcd = write_and_load_pcd(world, dir / "pcd");
   const BagRun runs[] = {
       {BagFormat::kRos1, Compression::kLz4, LidarConvention::kHesai, InsMessage::kInspva, nullptr},
@@ -174,7 +175,8 @@ TEST(BagEndToEnd, RigLidarsAreTopicsWithTheirOwnClocks) {
   c.rig = "top:vlp16,left:vlp16@left";
   const sim::World world = sim::build_world(c);
   ASSERT_EQ(world.lidars.size(), 2u);
-  const fs::path dir = fresh_dir("rig");
+  const testing::ScratchDir scratch = scratch_dir("rig");
+  const fs::path dir = scratch.path();
   cli::SimBagOptions o;
   o.format = BagFormat::kRos1;
   o.lidar_convention = LidarConvention::kOuster;
@@ -222,7 +224,8 @@ TEST(BagEndToEnd, CalibrationFromPcdAndFromBagAgree) {
   c.azimuth_step_deg = 1.5;
   c.time_offset_s = 0.02;
   const sim::World world = sim::build_world(c);
-  const fs::path dir = fresh_dir("calibrate");
+  const testing::ScratchDir scratch = scratch_dir("calibrate");
+  const fs::path dir = scratch.path();
   const Dataset pcd = write_and_load_pcd(world, dir / "pcd");
   PipelineConfig config;
   config.repeatability.segments = 0;

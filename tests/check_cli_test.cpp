@@ -30,6 +30,7 @@ std::string exe() { return INSALIGN_EXE; }
 
 // A simulated drive shared by the tests of this file (each runs in its own process): made once
 // under the temp directory, renamed into place when complete so a parallel test never sees half.
+// Kept after the run on purpose: a cache across test processes and runs, not scratch.
 fs::path drive(const std::string& name, const std::string& options) {
   const fs::path dir = fs::temp_directory_path() / ("insalign_check_drive_" + name);
   if (fs::exists(dir / "installed-extrinsic.json")) return dir;
@@ -69,7 +70,8 @@ std::string verdict(const Check& c, const char* dof) { return c.out["dofs"][dof]
 
 TEST(CheckCli, UnchangedExtrinsicIsNeverDriftedAndOkWithTzUnchecked) {
   const fs::path d = city_drive();
-  const fs::path out = insalign::testing::fresh_dir("check_", "unchanged");
+  const insalign::testing::ScratchDir scratch("check_", "unchanged");
+  const fs::path out = scratch.path();
   const Check c = check(d, (d / "installed-extrinsic.json").string(), out / "a");
   // tz cannot be seen without fiducials or a height: inconclusive (exit 3), naming it.
   EXPECT_EQ(c.rc, 3) << c.text;
@@ -98,7 +100,8 @@ TEST(CheckCli, UnchangedExtrinsicIsNeverDriftedAndOkWithTzUnchecked) {
 
 TEST(CheckCli, KnockIsRecalibrateWithTheCorrectionWithinThreeStddev) {
   const fs::path d = knocked_city_drive();
-  const fs::path out = insalign::testing::fresh_dir("check_", "knock");
+  const insalign::testing::ScratchDir scratch("check_", "knock");
+  const fs::path out = scratch.path();
   const Check c = check(d, (d / "installed-extrinsic.json").string(), out);
   EXPECT_EQ(c.rc, 4) << c.text;
   ASSERT_TRUE(c.out.is_object()) << c.text;
@@ -137,7 +140,8 @@ TEST(CheckCli, KnockIsRecalibrateWithTheCorrectionWithinThreeStddev) {
 // and the highway decided nothing).
 TEST(CheckCli, HighwayChecksPitchAndYawAndHoldsTheLeverArm) {
   const fs::path d = drive("highway_knock", "--trajectory highway --duration-s 120 --traffic 4 --knock \"0 0 0 0 0 0.12\"");
-  const fs::path out = insalign::testing::fresh_dir("check_", "highway");
+  const insalign::testing::ScratchDir scratch("check_", "highway");
+  const fs::path out = scratch.path();
   const Check c = check(d, (d / "installed-extrinsic.json").string(), out / "a");
   EXPECT_EQ(c.rc, 4) << c.text;
   ASSERT_TRUE(c.out.is_object()) << c.text;
@@ -172,7 +176,8 @@ fs::path later_knocked_city_drive() {
 
 TEST(CheckCli, HistoryCombinesDrivesAndDatesTheKnock) {
   const fs::path a = city_drive(), b = later_knocked_city_drive();
-  const fs::path out = insalign::testing::fresh_dir("check_", "history");
+  const insalign::testing::ScratchDir scratch("check_", "history");
+  const fs::path out = scratch.path();
   const std::string installed = (a / "installed-extrinsic.json").string();  // the same for both drives
   const fs::path history = out / "history";
   const Check first = check(a, installed, out / "1", "--history " + history.string());
@@ -194,7 +199,8 @@ TEST(CheckCli, HistoryCombinesDrivesAndDatesTheKnock) {
 
 TEST(CheckCli, InvertedExtrinsicIsGrosslyOffAndSaysInvertIt) {
   const fs::path d = city_drive();
-  const fs::path out = insalign::testing::fresh_dir("check_", "inverted");
+  const insalign::testing::ScratchDir scratch("check_", "inverted");
+  const fs::path out = scratch.path();
   const Iso3 installed = io::read_extrinsic_file(d / "installed-extrinsic.json").T_ins_lidar;
   std::ofstream(out / "inverted.json") << json{{"T_ins_lidar", io::transform_to_json(installed.inverse())}}.dump();
   const Check c = check(d, (out / "inverted.json").string(), out / "o");
@@ -210,7 +216,8 @@ TEST(CheckCli, InvertedExtrinsicIsGrosslyOffAndSaysInvertIt) {
 
 TEST(CheckCli, DriveThatBarelyMovesIsInconclusiveWithWhy) {
   const fs::path d = drive("standstill", "--trajectory standstill --duration-s 10");
-  const fs::path out = insalign::testing::fresh_dir("check_", "standstill");
+  const insalign::testing::ScratchDir scratch("check_", "standstill");
+  const fs::path out = scratch.path();
   const Check c = check(d, (d / "installed-extrinsic.json").string(), out);
   EXPECT_EQ(c.rc, 3) << c.text;
   EXPECT_EQ(c.out["verdict"], "inconclusive");
@@ -220,7 +227,8 @@ TEST(CheckCli, DriveThatBarelyMovesIsInconclusiveWithWhy) {
 
 TEST(CheckCli, RecordingWithoutInsAndBadExtrinsicsExitTwo) {
   const fs::path bag = fs::path(INSALIGN_TEST_DATA_DIR) / "bags" / "ros1_hesai_inspva.bag";
-  const fs::path out = insalign::testing::fresh_dir("check_", "noins");
+  const insalign::testing::ScratchDir scratch("check_", "noins");
+  const fs::path out = scratch.path();
   // The recording rewritten without its INS topics.
   const auto reader = io::bag::open_bag(bag);
   const auto writer = io::bag::make_bag_writer(io::bag::BagFormat::kRos1, out / "no_ins.bag");

@@ -6,9 +6,11 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <functional>
 #include <string>
+#include <system_error>
 #include <utility>
 
 #include "core/errors.hpp"
@@ -23,6 +25,25 @@ inline std::filesystem::path fresh_dir(const std::string& prefix, const std::str
   std::filesystem::create_directories(dir);
   return dir;
 }
+
+/// fresh_dir's folder, removed with all in it when this goes out of scope: the suite leaves
+/// nothing behind in the temp directory. INSALIGN_KEEP_TEST_DIRS (any value) keeps it, to look
+/// at after a failure.
+class ScratchDir {
+ public:
+  ScratchDir(const std::string& prefix, const std::string& tag) : path_(fresh_dir(prefix, tag)) {}
+  ScratchDir(const ScratchDir&) = delete;
+  ScratchDir& operator=(const ScratchDir&) = delete;
+  ~ScratchDir() {
+    if (std::getenv("INSALIGN_KEEP_TEST_DIRS") != nullptr) return;
+    std::error_code ec;  // never throws: a folder that cannot be removed is left, not a crash
+    std::filesystem::remove_all(path_, ec);
+  }
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
 
 /// Exit code (-1: did not exit) and stdout + stderr of a shell command.
 inline std::pair<int, std::string> run_command(const std::string& cmd) {

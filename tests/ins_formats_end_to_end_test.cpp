@@ -39,7 +39,7 @@ namespace {
 namespace fs = std::filesystem;
 using cli::PosesFormat;
 
-fs::path fresh_dir(const std::string& tag) { return testing::fresh_dir("insalign_ins_e2e_", tag); }
+testing::ScratchDir scratch_dir(const std::string& tag) { return {"insalign_ins_e2e_", tag}; }
 
 // The PCD folder as cmd_simulate writes it, with the 100 Hz TUM poses (the simulator's INS frame).
 void write_pcd_folder(const sim::World& world, const fs::path& dir) {
@@ -133,8 +133,9 @@ Calibrated calibrate_cli(const io::InputSpec& spec, const io::InputConfig& confi
 }
 
 struct Shared {
+  testing::ScratchDir scratch = scratch_dir("calibrate");  // removed at the process's exit
   sim::World world;
-  fs::path dir;
+  fs::path dir = scratch.path();
   io::LoadedInput pcd;
   Calibrated opencalib;
 };
@@ -150,7 +151,6 @@ const Shared& calibration_drive() {
     c.azimuth_step_deg = 1.0;
     c.time_offset_s = 0.02;
     s->world = sim::build_world(c);
-    s->dir = fresh_dir("calibrate");
     write_pcd_folder(s->world, s->dir / "pcd");
     const io::InputSpec spec = pcd_spec(s->dir / "pcd", s->dir / "pcd" / "poses_tum.txt");
     s->pcd = io::load_input(spec);
@@ -262,8 +262,9 @@ INSTANTIATE_TEST_SUITE_P(Formats, InsFormatsEndToEnd,
 // A 45 s drive for the clock rules: long enough that an 18 s shift still leaves most frames inside
 // the INS range, so that the ranges alone cannot tell and the motion must.
 struct ClockDrive {
+  testing::ScratchDir scratch = scratch_dir("clock");  // removed at the process's exit
   sim::World world;
-  fs::path dir;
+  fs::path dir = scratch.path();
 };
 
 const ClockDrive& clock_drive() {
@@ -275,7 +276,6 @@ const ClockDrive& clock_drive() {
     c.lidar_model = "vlp16";
     c.azimuth_step_deg = 2.0;
     s->world = sim::build_world(c);
-    s->dir = fresh_dir("clock");
     write_pcd_folder(s->world, s->dir / "pcd");
     return s;
   }();
@@ -384,7 +384,8 @@ void write_heading_log(PosesFormat format, const Heading& h, const fs::path& pat
 }
 
 TEST(InsFormatsHeading, EachFormatsForwardAxisPointsAlongTheDriveNorthEastSouthWest) {
-  const fs::path dir = fresh_dir("heading");
+  const testing::ScratchDir scratch = scratch_dir("heading");
+  const fs::path dir = scratch.path();
   for (const PosesFormat format : {PosesFormat::kNovatel, PosesFormat::kSbet, PosesFormat::kCsv, PosesFormat::kKitti}) {
     // Forward and up axes of the format's ins frame (CONVENTIONS.md): column index and sign.
     const int forward_axis = format == PosesFormat::kNovatel ? 1 : 0;
@@ -417,7 +418,8 @@ TEST(InsFormatsHeading, EachFormatsForwardAxisPointsAlongTheDriveNorthEastSouthW
 // The command line as users call it: simulate writes the log, calibrate reads it (once helper
 // A's --poses wiring is in: it already reads any --poses file through load_input).
 TEST(InsFormatsCli, SimulateWritesEachFormatWithItsSideFiles) {
-  const fs::path dir = fresh_dir("cli");
+  const testing::ScratchDir scratch = scratch_dir("cli");
+  const fs::path dir = scratch.path();
   for (const char* format : {"novatel", "sbet", "csv", "kitti", "tum"}) {
     SCOPED_TRACE(format);
     const fs::path out = dir / format;
@@ -478,7 +480,8 @@ TEST(InsFormatsCli, BadLogsExit2NamingTheFileAndTheLineOrByte) {
   c.lidar_model = "vlp16";
   c.azimuth_step_deg = 4.0;
   const sim::World world = sim::build_world(c);
-  const fs::path dir = fresh_dir("bad");
+  const testing::ScratchDir scratch = scratch_dir("bad");
+  const fs::path dir = scratch.path();
   write_pcd_folder(world, dir / "pcd");
   cli::SimInsOptions o;
   o.format = PosesFormat::kNovatel;
@@ -530,7 +533,8 @@ TEST(InsFormatsCli, BadLogsExit2NamingTheFileAndTheLineOrByte) {
 
 // simulate --config: the sim section of a tool config, the options given beside it winning.
 TEST(InsFormatsCli, SimulateConfigFileSetsTheSimSectionAndOptionsOverrideIt) {
-  const fs::path dir = fresh_dir("config");
+  const testing::ScratchDir scratch = scratch_dir("config");
+  const fs::path dir = scratch.path();
   {
     std::FILE* f = std::fopen((dir / "sim.yaml").c_str(), "w");
     std::fputs("sim:\n  seed: 9\n  lidar_model: vlp16\n  azimuth_step_deg: 4.0\n  duration_s: 1.0\n  n_fiducials: 3\n", f);

@@ -4,7 +4,6 @@
 #pragma once
 
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cmath>
 #include <cstdint>
@@ -13,13 +12,17 @@
 #include <string>
 #include <vector>
 
+#include "cli_test_util.hpp"
 #include "core/geometry.hpp"
 #include "core/pose_stream.hpp"
 
 namespace insalign::test {
 
+/// A fresh folder `name` in this process's ScratchDir, removed at the process's exit (ctest runs
+/// each test in a process of its own); helpers return paths in it, so it outlives their calls.
 inline std::filesystem::path scratch_dir(const std::string& name) {
-  const auto dir = std::filesystem::temp_directory_path() / ("insalign-ins-" + std::to_string(::getpid()) + "-" + name);
+  static const insalign::testing::ScratchDir root("insalign-ins", "");
+  const auto dir = root.path() / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -23,7 +23,8 @@ void expect_same(const Iso3& a, const Iso3& b, const std::string& what) {
 }
 
 TEST(InstalledExtrinsic, ReadsEveryFormatCalibrateWrites) {
-  const auto dir = insalign::testing::fresh_dir("installed_", "formats");
+  const insalign::testing::ScratchDir scratch("installed_", "formats");
+  const auto dir = scratch.path();
   std::vector<std::filesystem::path> files = write_all_formats(dir, kT);
   write_opencalib_extrinsic(dir / "opencalib.json", kT);
   files.push_back(dir / "opencalib.json");
@@ -60,7 +61,8 @@ TEST(InstalledExtrinsic, ReadsARigByName) {
 // --init takes the same files: a previous result re-used as the start; a rig's file is refused
 // with what to do instead.
 TEST(InstalledExtrinsic, InitTakesAnyFormatOfOneExtrinsic) {
-  const auto dir = insalign::testing::fresh_dir("installed_", "init");
+  const insalign::testing::ScratchDir scratch("installed_", "init");
+  const auto dir = scratch.path();
   for (const auto& f : write_all_formats(dir, kT)) expect_same(read_init_extrinsic(f), kT, f.string());
   write_opencalib_extrinsic(dir / "opencalib.json", kT);
   expect_same(read_init_extrinsic(dir / "opencalib.json"), kT, "opencalib");

@@ -211,11 +211,11 @@ TEST(CheckViewer, InstalledAndCorrectedWithTheStretchesUsedInColour) {
   // The budget 0 writes no view, and the page says nothing of one.
   const io::LidarCheck none = check_of(f, store, "", 0);
   EXPECT_EQ(none.viewer.size(), 0u);
-  const std::filesystem::path dir = testing::fresh_dir("insalign_viewer_", "check_none");
+  const testing::ScratchDir scratch("insalign_viewer_", "check_none");
+  const std::filesystem::path dir = scratch.path();
   io::write_check_html(dir, {none});
   EXPECT_FALSE(std::filesystem::exists(dir / "report" / "viewer_data.js"));
   EXPECT_EQ(io::read_file(dir / "check.html").find("insalign-viewer"), std::string::npos);
-  std::filesystem::remove_all(dir);
 }
 
 // ---- In a real browser -------------------------------------------------------------------------
@@ -311,7 +311,9 @@ TEST(ViewerBrowser, ReportFromFileDrawsSwitchesTogglesOrbitsPansZoomsAndPicks) {
   io::ViewerScene scene = scene_of(f, store, 300000);
   scene.sections = io::report_sections(images);
   images.viewer = io::encode_viewer(scene);
-  const std::filesystem::path dir = testing::fresh_dir("insalign_viewer_", "browser");
+  // Declared before the browser, so removed after it has quit: a running Chromium still writes its profile.
+  const testing::ScratchDir scratch("insalign_viewer_", "browser");
+  const std::filesystem::path dir = scratch.path();
   io::ReportData data;
   io::write_report(dir, data, images);
   const std::filesystem::path page = dir / "report.html";
@@ -386,14 +388,14 @@ TEST(ViewerBrowser, ReportFromFileDrawsSwitchesTogglesOrbitsPansZoomsAndPicks) {
   EXPECT_TRUE(v.browser.wait_for("document.getElementById('viewer-status').dataset.state === 'fallback'"));
   const std::string fallback = v.browser.eval("document.querySelector('#insalign-viewer .viewer-fallback').textContent").get<std::string>();
   EXPECT_EQ(fallback, "WebGL is not available in this browser: the PNG projections below show the map.");
-  std::filesystem::remove_all(dir);
 }
 
 TEST(ViewerBrowser, CheckPageShowsInstalledAndCorrectedAndARigByLidar) {
   if (!testing::have_chromium()) GTEST_SKIP() << "chromium is not installed (scripts/install-deps.sh)";
   const Fixture f = make_fixture();
   const FrameStore store = testing::store_of(f.drive.data);
-  const std::filesystem::path dir = testing::fresh_dir("insalign_viewer_", "check");
+  const testing::ScratchDir scratch("insalign_viewer_", "check");
+  const std::filesystem::path dir = scratch.path();
   io::write_check_html(dir / "one", {check_of(f, store, "", 200000)});
   using B = testing::Browser;
   {
@@ -421,7 +423,6 @@ TEST(ViewerBrowser, CheckPageShowsInstalledAndCorrectedAndARigByLidar) {
     EXPECT_GT(differing(by_lidar, height), 0.01) << "colour by LiDAR changed nothing";
     EXPECT_TRUE(v.browser.errors.empty()) << v.browser.errors.front();
   }
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

@@ -25,7 +25,8 @@ TEST(FleetCheckRows, RealChecksFlagTheKnockedCarAndDateItsKnock) {
                                                check_row(d.dir, "car1", "2026-02-15", "k2") +
                                                check_row(d.dir, "car2", "2026-02-01", "u2") +
                                                check_row(d.dir, "car3", "2026-02-08", "u3"));
-  const fs::path results = fresh_dir("insalign_fleet_checks", "");
+  const ScratchDir scratch("insalign_fleet_checks", "");
+  const fs::path results = scratch.path();
   const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + results.string() + " --jobs 2");
   EXPECT_EQ(rc, 0) << out;
   EXPECT_TRUE(contains(out, "5 rows: 5 done")) << out;

@@ -17,6 +17,7 @@ namespace {
 // Car A calibrated twice on one mount then checked (a real check: ok), car B calibrated before
 // and after a knock, car C with a corrupt recording.
 const fs::path& fleet_results() {
+  static const ScratchDir scratch("insalign_fleet_history", "");  // removed at the process's exit
   static const fs::path results = [] {
     const FleetDrives& d = fleet_drives();
     const fs::path manifest = write_manifest(d.dir / "history.csv", calibrate_row("carA", "2026-01-01", "a") +
@@ -25,7 +26,7 @@ const fs::path& fleet_results() {
                                                                         calibrate_row("carB", "2026-01-15", "b-knocked") +
                                                                         calibrate_row("carC", "2026-01-02", "corrupt") +
                                                                         check_row(d.dir, "carA", "2026-01-22", "u1"));
-    const fs::path r = fresh_dir("insalign_fleet_history", "");
+    const fs::path r = scratch.path();
     const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + r.string() + " --jobs 2");
     EXPECT_EQ(rc, 1) << out;  // carC fails
     return r;
@@ -35,7 +36,8 @@ const fs::path& fleet_results() {
 
 TEST(FleetHistory, SqliteIngestIsIdempotentAndReplacesNewerAttempts) {
   const fs::path results = fleet_results();
-  const fs::path db_path = fresh_dir("insalign_fleet_sqlite", "") / "fleet.sqlite";
+  const ScratchDir scratch("insalign_fleet_sqlite", "");
+  const fs::path db_path = scratch.path() / "fleet.sqlite";
   auto db = fleet::open_sqlite(db_path);
   fleet::IngestSummary first = fleet::ingest_results(results, *db);
   EXPECT_EQ(first.inserted, 6);
@@ -75,7 +77,8 @@ TEST(FleetHistory, SqliteIngestIsIdempotentAndReplacesNewerAttempts) {
 }
 
 TEST(FleetHistory, SchemaMigratesFromVersion1KeepingItsRows) {
-  const fs::path dir = fresh_dir("insalign_fleet_migrate", "");
+  const ScratchDir scratch("insalign_fleet_migrate", "");
+  const fs::path dir = scratch.path();
   auto db = fleet::open_sqlite(dir / "old.sqlite");
   EXPECT_EQ(fleet::migrate(*db, 1), 0);
   EXPECT_EQ(fleet::schema_version(*db), 1);
@@ -94,7 +97,8 @@ TEST(FleetHistory, SchemaMigratesFromVersion1KeepingItsRows) {
 
 TEST(FleetHistory, DashboardFlagsTheKnockedCarAndListsTheFailedRow) {
   const fs::path results = fleet_results();
-  const fs::path out = fresh_dir("insalign_fleet_report", "");
+  const ScratchDir scratch("insalign_fleet_report", "");
+  const fs::path out = scratch.path();
   const auto [rc, text] = run_command(exe() + " fleet ingest --results " + results.string() + " --db sqlite:" + (out / "h.sqlite").string() +
                                       " && " + exe() + " fleet report --db sqlite:" + (out / "h.sqlite").string() + " --out " + out.string());
   ASSERT_EQ(rc, 0) << text;
@@ -148,7 +152,8 @@ TEST(FleetHistory, PostgresConcurrentIngestsGiveTheSameRowsAsSqlite) {
   }
   EXPECT_EQ(inserted, 1);  // one ingest stored the rows; the other three found them there
   auto pg = fleet::open_postgres(db_url);
-  auto sqlite = fleet::open_sqlite(fresh_dir("insalign_fleet_pg_vs", "") / "fleet.sqlite");
+  const ScratchDir scratch("insalign_fleet_pg_vs", "");
+  auto sqlite = fleet::open_sqlite(scratch.path() / "fleet.sqlite");
   fleet::ingest_results(results, *sqlite);
   const auto runs = fleet::load_runs(*pg);
   EXPECT_EQ(runs.size(), 6u);

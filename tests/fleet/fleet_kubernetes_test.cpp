@@ -14,7 +14,8 @@ TEST(FleetKubernetes, IndexedJobAndDockerfile) {
   const FleetDrives& d = fleet_drives();
   const fs::path manifest = write_manifest(d.dir / "k8s.csv", calibrate_row("carA", "2026-01-01", "a") +
                                                                   calibrate_row("carC", "2026-01-01", "corrupt"));
-  const fs::path results = fresh_dir("insalign_fleet_k8s", "") / "results";
+  const ScratchDir scratch("insalign_fleet_k8s", "");
+  const fs::path results = scratch.path() / "results";
   const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + results.string() +
                                      " --engine kubernetes --jobs 3 --image registry.example/insalign:1 --volume-claim fleet-pvc");
   ASSERT_EQ(rc, 0) << out;

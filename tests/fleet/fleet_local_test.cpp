@@ -50,7 +50,8 @@ TEST(FleetLocal, EveryRowDoneOnceBadRecordingsFailWithTheirReason) {
                                                                     calibrate_row("carB", "2026-01-01", "b") +
                                                                     calibrate_row("carC", "2026-01-01", "corrupt") +
                                                                     calibrate_row("carD", "2026-01-01", "nowhere"));
-  const fs::path results = fresh_dir("insalign_fleet_local", "");
+  const ScratchDir scratch("insalign_fleet_local", "");
+  const fs::path results = scratch.path();
   const std::string run = exe() + " fleet run " + manifest.string() + " --results " + results.string() + " --jobs 2";
   const auto [rc, out] = run_command(run);
   EXPECT_EQ(rc, 1) << out;  // two rows failed: the fleet ran to its end and says so
@@ -101,7 +102,8 @@ bool wait_for_temporary(const fs::path& car_dir) {
 TEST(FleetLocal, AKilledTaskLeavesNoPartialResultAndIsRetried) {
   const FleetDrives& d = fleet_drives();
   const fs::path manifest = write_manifest(d.dir / "kill.csv", calibrate_row("carK", "2026-02-01", "a"));
-  const fs::path results = fresh_dir("insalign_fleet_kill", "");
+  const ScratchDir scratch("insalign_fleet_kill", "");
+  const fs::path results = scratch.path();
   const std::vector<std::string> task{exe(), "fleet", "task", manifest.string(), "--results", results.string(), "--index", "0"};
 
   // SIGTERM (scancel, a time limit): the command is stopped, the temporary folder removed, the signal recorded.
@@ -139,7 +141,8 @@ TEST(FleetLocal, AMalformedManifestExits2BeforeAnythingRuns) {
   const FleetDrives& d = fleet_drives();
   const fs::path manifest =
       write_manifest(d.dir / "dup.csv", calibrate_row("carX", "2026-01-01", "a") + calibrate_row("carX", "2026-01-01", "b"));
-  const fs::path results = fresh_dir("insalign_fleet_dup", "");
+  const ScratchDir scratch("insalign_fleet_dup", "");
+  const fs::path results = scratch.path();
   const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + results.string());
   EXPECT_EQ(rc, 2) << out;
   EXPECT_TRUE(contains(out, "dup.csv:line 3, column 1: duplicate id carX/2026-01-01-calibrate (lines 2 and 3)")) << out;

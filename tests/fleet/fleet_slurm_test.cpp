@@ -48,7 +48,8 @@ TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
   std::string text;
   for (const Row& r : rows) text += r.kind == "check" ? check_row(d.dir, r.car, r.date, r.drive) : calibrate_row(r.car, r.date, r.drive);
   const fs::path manifest = write_manifest(d.dir / "slurm.csv", text);
-  const fs::path results = fresh_dir("insalign_fleet_slurm", "");
+  const ScratchDir scratch("insalign_fleet_slurm", "");
+  const fs::path results = scratch.path();
   const std::string run = exe() + " fleet run " + manifest.string() + " --results " + results.string() +
                           " --engine slurm --wait --jobs 2 --cpus-per-task 1 --poll-s 0.5";
 

@@ -80,6 +80,7 @@ struct FleetDrives {
 };
 
 // Shared by the test processes ctest runs at once: the first one simulates, under a lock.
+// Kept after the run on purpose: a cache across test processes and runs, not scratch.
 inline const FleetDrives& fleet_drives() {
   static FleetDrives d = [] {
     FleetDrives f{fs::temp_directory_path() / "insalign_fleet_drives_v2"};
