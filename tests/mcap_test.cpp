@@ -655,7 +655,9 @@ TEST(Mcap, Lz4ChunkGivesItsSmallMessagesWithoutDecodingTheCloudBehindThem) {
   });
   EXPECT_EQ(served, small.size());
   for (const MessageRef& cloud : reader->messages(0))
-    if (cloud.locator == *locator) EXPECT_THROW((void)reader->read(cloud), InputError);
+    if (cloud.locator == *locator) {
+      EXPECT_THROW((void)reader->read(cloud), InputError);
+    }
   fs::remove_all(dir);
 }
 

@@ -59,7 +59,7 @@ TEST(TextExport, ParsesTheCompactColumnSpec) {
   EXPECT_EQ(q.status_code, StatusCode::kGga);
   EXPECT_EQ(q.delimiter, TextDelimiter::kSemicolon);
   // The spec format_text_export_columns writes parses back to the same mapping.
-  for (const std::string spec : {std::string(kIeSpec), std::string(kPospacSpec), format_text_export_columns(q)}) {
+  for (const std::string& spec : {std::string(kIeSpec), std::string(kPospacSpec), format_text_export_columns(q)}) {
     const TextExportColumns a = parse_text_export_columns(spec);
     const TextExportColumns b = parse_text_export_columns(format_text_export_columns(a));
     EXPECT_EQ(format_text_export_columns(a), format_text_export_columns(b));

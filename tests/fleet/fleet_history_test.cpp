@@ -2,6 +2,8 @@
 // concurrent ingest) and the dashboard, on the results of a real local fleet run.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
+
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -20,7 +22,9 @@ const fs::path& fleet_results() {
   static const ScratchDir scratch("insalign_fleet_history", "");  // removed at the process's exit
   static const fs::path results = [] {
     const FleetDrives& d = fleet_drives();
-    const fs::path manifest = write_manifest(d.dir / "history.csv", calibrate_row("carA", "2026-01-01", "a") +
+    // Its rows name the drives relative to it, so it lives beside them; one per process: the
+    // tests of this file run at once and would rewrite one another's manifest while it is read.
+    const fs::path manifest = write_manifest(d.dir / ("history-" + std::to_string(::getpid()) + ".csv"), calibrate_row("carA", "2026-01-01", "a") +
                                                                         calibrate_row("carA", "2026-01-08", "a") +
                                                                         calibrate_row("carB", "2026-01-01", "b") +
                                                                         calibrate_row("carB", "2026-01-15", "b-knocked") +
@@ -29,6 +33,7 @@ const fs::path& fleet_results() {
     const fs::path r = scratch.path();
     const auto [rc, out] = run_command(exe() + " fleet run " + manifest.string() + " --results " + r.string() + " --jobs 2");
     EXPECT_EQ(rc, 1) << out;  // carC fails
+    fs::remove(manifest);
     return r;
   }();
   return results;
@@ -117,7 +122,9 @@ TEST(FleetHistory, DashboardFlagsTheKnockedCarAndListsTheFailedRow) {
       EXPECT_EQ(car["latest"]["date"], "2026-01-22");
       EXPECT_EQ(car["latest"]["report"], (fs::relative(results, out) / "carA/2026-01-22-check/check.html").string());
     }
-    if (car["car"] == "carC") EXPECT_EQ(car["state"], "failed");
+    if (car["car"] == "carC") {
+      EXPECT_EQ(car["state"], "failed");
+    }
   }
   ASSERT_EQ(j["failed"].size(), 1u);
   EXPECT_EQ(j["failed"][0]["id"], "carC/2026-01-02-calibrate");

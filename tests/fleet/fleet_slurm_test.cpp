@@ -99,7 +99,9 @@ TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
       ASSERT_TRUE(fs::exists(out / "check.json")) << s->id;
       const nlohmann::json c = nlohmann::json::parse(io::read_file(out / "check.json"));
       EXPECT_EQ(c["verdict"], expected) << s->id << ": " << c["message"];
-      if (expected == "recalibrate") EXPECT_EQ(c["dofs"]["yaw"]["verdict"], "drifted") << s->id;
+      if (expected == "recalibrate") {
+        EXPECT_EQ(c["dofs"]["yaw"]["verdict"], "drifted") << s->id;
+      }
     }
   }
   EXPECT_FALSE(fs::is_empty(results / "slurm" / "logs"));
@@ -114,7 +116,9 @@ TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
   EXPECT_EQ(retried->attempts, 2);
   for (std::size_t i = 1; i < rows.size(); ++i) {
     const auto s = fleet::read_status(results, row_of(rows[i]));
-    if (rows[i].drive != "u1-corrupt") EXPECT_EQ(s->started, started[s->id]) << "done exactly once: " << s->id;
+    if (rows[i].drive != "u1-corrupt") {
+      EXPECT_EQ(s->started, started[s->id]) << "done exactly once: " << s->id;
+    }
   }
 
   // The report of the results folder ingests its rows (sqlite:DIR/fleet.sqlite), then reports.
@@ -130,7 +134,9 @@ TEST(FleetSlurm, ArrayJobOfChecksWithAKnockACorruptRecordingAndACancelledTask) {
   EXPECT_EQ(j["cars"][0]["knocks"][0]["after"], "2026-01-01");
   EXPECT_TRUE(contains(j["cars"][0]["knocks"][0]["what"].get<std::string>(), "yaw +0.")) << j["cars"][0]["knocks"][0];
   for (const auto& car : j["cars"])  // the unchanged cars: their latest check's verdict
-    if (car["car"] != "carB") EXPECT_EQ(car["state"], car["car"] == "carF" ? "inconclusive" : "ok") << car;
+    if (car["car"] != "carB") {
+      EXPECT_EQ(car["state"], car["car"] == "carF" ? "inconclusive" : "ok") << car;
+    }
   ASSERT_EQ(j["failed"].size(), 1u);
   EXPECT_EQ(j["failed"][0]["id"], "carD/2026-01-08-check");
   EXPECT_TRUE(contains(j["failed"][0]["error"].get<std::string>(), "line 20"));

@@ -26,6 +26,7 @@ inline void simulate_drive(const fs::path& dir, int seed, const std::string& mou
   const auto [rc, out] = run_command(std::string(INSALIGN_EXE) + " simulate --out " + tmp.string() + " --seed " +
                                      std::to_string(seed) + " --loops 1 --frames 120 --lidar vlp16 --azimuth-step-deg 1 --extrinsic \"" +
                                      mount + "\" --quiet");
+  if (rc != 0) fs::remove_all(tmp);  // nothing half-made left in the cache
   ASSERT_EQ(rc, 0) << out;
   fs::rename(tmp, dir);
 }
@@ -51,6 +52,7 @@ inline void simulate_ordinary_drive(const fs::path& dir, int seed, bool knocked)
                                      std::to_string(seed) + " --trajectory parking-lot --duration-s 60 --lidar vlp16 "
                                      "--azimuth-step-deg 1 --traffic 2 --extrinsic \"" + mount + "\"" +
                                      (knocked ? std::string(" --knock \"") + kCheckKnock + "\"" : std::string()) + " --quiet");
+  if (rc != 0) fs::remove_all(tmp);  // nothing half-made left in the cache
   ASSERT_EQ(rc, 0) << out;
   fs::rename(tmp, dir);
 }
