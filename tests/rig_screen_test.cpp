@@ -126,8 +126,11 @@ TEST(RigScreen, AWrongFixFoundByTheRoofLidarIsLeftOutOfEveryLidar) {
 }
 
 
-// 20 cars and 30 people: each LiDAR's mask, built with its own stage 1, holds mostly the movers it
-// saw, and both extrinsics stay within bounds.
+// 20 cars and 30 people: each LiDAR's mask, from the rig's one evidence (the roof's rays, both
+// LiDARs' points, each placed with its own stage 1), holds mostly the movers it saw, and both
+// extrinsics stay within bounds. Against each LiDAR's own evidence (its own rays, as expensive as
+// the roof's): the side LiDAR misses no more movers, and the pooled hits keep the roof's static
+// points better.
 TEST(RigScreen, EachLidarMasksTheTrafficItSaw) {
   sim::SimConfig sc;
   sc.seed = 3;
@@ -137,10 +140,20 @@ TEST(RigScreen, EachLidarMasksTheTrafficItSaw) {
   config.repeatability.segments = 0;
   const SimRig rig = sim_rig(sc, config);
   const RigResult result = run_rig_calibration(rig.stores, rig.names, config);
+  PipelineConfig own_config = config;
+  own_config.moving.rig_shared = false;
+  const RigResult own = run_rig_calibration(rig.stores, rig.names, own_config);
   for (std::size_t l = 0; l < 2; ++l) {
     const CalibrationResult& r = result.lidars[l].result;
     ASSERT_TRUE(r.moving.applied && r.moving.mask) << result.lidars[l].name;
+    EXPECT_EQ(result.lidars[l].moving_space_by, "top");
+    EXPECT_EQ(own.lidars[l].moving_space_by, "");
     const testing::MoverScore s = testing::mover_score(*rig.world, l, *r.moving.mask);
+    const testing::MoverScore s_own = testing::mover_score(*rig.world, l, *own.lidars[l].result.moving.mask);
+    std::printf("%s, own evidence: precision %.3f recall %.3f\n", result.lidars[l].name.c_str(), s_own.precision(),
+                s_own.recall());
+    EXPECT_GT(s.recall(), s_own.recall() - 0.01) << result.lidars[l].name;
+    if (l == 0) EXPECT_GT(s.precision(), s_own.precision()) << "the roof's, with the side LiDAR's hits";
     const ExtrinsicError e = error_of(rig, result, l);
     std::printf("%s: movers %.2f%% of points, %zu of %zu sample points masked: precision %.3f recall %.3f; |t| %.2f %.2f "
                 "mm, %.4f deg\n",

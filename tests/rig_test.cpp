@@ -136,6 +136,26 @@ TEST(Rig, JointRefinementFixesASideLidarThatAloneIsOff) {
   EXPECT_TRUE(joint.pairs[0].stddev.allFinite());
 }
 
+// The anchor's sweeps enter stage 2 as one LiDAR's do; a member's at most
+// refine.joint.member_max_points each (here the roof's store stands in for a dense member).
+TEST(Rig, AMemberBesideTheAnchorGivesStage2AtMostItsPointBudget) {
+  const RigRun& run = small_rig_run();
+  const CalibrationResult& top = run.result.lidars[0].result;
+  ASSERT_TRUE(top.refine);
+  EXPECT_EQ(run.result.lidars[1].tz_anchor, "top");
+  const std::vector<std::size_t> frames = refine_frames(run.rig.stores[0], run.config.refine, top.time_offset_s, 0.05);
+  const auto points_per_frame = [&](std::size_t budget) {
+    RefineLidar in{"top", &run.rig.stores[0], frames, top.T_ins_lidar, top.time_offset_s, false, false, budget};
+    const RefineResult r = refine_joint({in}, run.config.refine).lidars.front();
+    return double(r.points_used) / double(std::max<std::size_t>(r.frames_used, 1));
+  };
+  const double own = points_per_frame(0), member = points_per_frame(1000);
+  std::printf("top: %.0f points per frame as the anchor, %.0f with a member's budget of 1000\n", own, member);
+  EXPECT_GT(own, 1500.0);
+  EXPECT_LE(member, 1000.0);
+  EXPECT_GT(member, 900.0);
+}
+
 // Joint stage 2 with every tz held where it started: the side LiDAR's ground sits 3 cm off the
 // roof's in the shared map, and the sparse LiDAR tilts to meet it. With relative tz (the default)
 // only the anchor's (the roof's, the larger map) is held, the side LiDAR's height follows the

@@ -92,6 +92,7 @@ System total_system(const std::vector<PlacedSweep>& sweeps, const PlaneTarget& m
 
 struct MapRegistration::Sweeps {
   std::vector<PlacedSweep> all;
+  std::vector<PlacedSweep> coarse;  // every coarse_stride-th point of each
 };
 
 std::shared_ptr<const PlaneTarget> map_target(const std::vector<Vec3f>& map_world, const MapRegistrationConfig& config) {
@@ -121,6 +122,12 @@ MapRegistration::MapRegistration(const FrameStore& store, std::shared_ptr<const 
       s.p_lidar.push_back(sweep.p_lidar[i].cast<double>());
     }
   });
+  const std::size_t stride = std::max<std::size_t>(config.coarse_stride, 1);
+  for (const PlacedSweep& s : sweeps->all) {
+    PlacedSweep& c = sweeps->coarse.emplace_back();
+    for (std::size_t i = 0; i < s.p_lidar.size(); i += stride)
+      c.T_world_ins.push_back(s.T_world_ins[i]), c.p_lidar.push_back(s.p_lidar[i]);
+  }
   sweeps_ = std::move(sweeps);
 }
 
@@ -133,7 +140,7 @@ MapFit MapRegistration::fit(const Iso3& T_ins_lidar) const {
 
 MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) const {
   MapRegistrationResult result;
-  LastMatches last;
+  LastMatches last, last_coarse;
   const auto fit_at = [&](const Iso3& T) {
     return total_system(sweeps_->all, *map_, T, config_.gate_end_m, config_.huber_m, last).fit;
   };
@@ -143,9 +150,14 @@ MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) cons
   double gate_m = config_.gate_start_m;
   Iso3 T = T_ins_lidar_start;
   for (int iter = 0; iter < n_iter; ++iter) {
-    const System sys = total_system(sweeps_->all, *map_, T, gate_m, config_.huber_m, last);
+    // While the gate still shrinks the start may be decimetres off: a sample of the points finds
+    // the basin; the final gate's iterations take every point.
+    const bool coarse = gate_m > config_.gate_end_m;
+    const System sys = total_system(coarse ? sweeps_->coarse : sweeps_->all, *map_, T, gate_m, config_.huber_m,
+                                    coarse ? last_coarse : last);
     result.iterations = iter + 1;
-    if (sys.fit.inliers < std::max<std::size_t>(config_.min_inliers, 6)) break;
+    const std::size_t stride = coarse ? std::max<std::size_t>(config_.coarse_stride, 1) : 1;
+    if (sys.fit.inliers * stride < std::max<std::size_t>(config_.min_inliers, 6)) break;
     const Vec6 delta = -(sys.H + 1e-6 * Mat6::Identity()).ldlt().solve(sys.g);
     Iso3 step = Iso3::Identity();
     step.linear() = so3_exp(delta.tail<3>());

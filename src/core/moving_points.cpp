@@ -240,14 +240,15 @@ class FrameCells {
   FrameEvidence evidence_;  // the voxels outside the box so far
 };
 
-// The voxels a frame's points land in and the voxels its rays cross short of their points.
-FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& ground_z_m, const MovingPointsConfig& c) {
+// The voxels a frame's points land in and (rays) the voxels its rays cross short of their points.
+FrameEvidence frame_evidence(const PlacedSweep& f, const VoxelKeyMap<float>& ground_z_m, const MovingPointsConfig& c,
+                             bool rays = true) {
   FrameCells cells(f, ground_z_m, c);
   VoxelCell v;
   std::int64_t bit = -1;
   for (const Vec3f& p : f.p_world)
     if (p.allFinite() && cells.cell(p, v, bit)) cells.mark_hit(v, bit);
-  for (std::size_t i = 0; i < f.p_world.size(); ++i) {
+  for (std::size_t i = 0; i < f.p_world.size() && rays; ++i) {
     const Vec3f& p = f.p_world[i];
     if (!p.allFinite()) continue;
     const Vec3f o = f.origin_start + f.fraction[i] * (f.origin_end - f.origin_start);
@@ -264,9 +265,8 @@ struct Counts {
 };
 using ShardedCounts = std::array<VoxelKeyMap<Counts>, kShards>;
 
-ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const VoxelKeyMap<float>& ground_z_m,
-                             const MovingPointsConfig& c) {
-  ShardedCounts counts;
+void count_evidence(const std::vector<PlacedSweep>& frames, const VoxelKeyMap<float>& ground_z_m,
+                    const MovingPointsConfig& c, bool rays, ShardedCounts& counts) {
   constexpr std::uint16_t kMax = std::numeric_limits<std::uint16_t>::max();
   const auto add = [&](const std::vector<std::uint64_t>& keys, VoxelKeyMap<Counts>& map, bool hit) {
     for (std::uint64_t key : keys) {
@@ -278,13 +278,12 @@ ShardedCounts count_evidence(const std::vector<PlacedSweep>& frames, const Voxel
     const std::size_t n = std::min(kBatchFrames, frames.size() - first);
     std::vector<FrameEvidence> batch(n);
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
-      batch[k] = frame_evidence(frames[first + k], ground_z_m, c);
+      batch[k] = frame_evidence(frames[first + k], ground_z_m, c, rays);
     });
     tbb::parallel_for(std::size_t{0}, kShards, [&](std::size_t part) {
       for (const FrameEvidence& e : batch) add(e.hit[part], counts[part], true), add(e.free[part], counts[part], false);
     });
   }
-  return counts;
 }
 
 bool moving_space(const Counts& n, const MovingPointsConfig& c) {
@@ -374,14 +373,13 @@ std::vector<char> MovingPoints::keep(std::size_t index, const Sweep& sweep) cons
   return keep_world(index, sweep_to_world(sweep, poses_, T_ins_lidar_, PlaceOptions{.time_offset_s = time_offset_s_}));
 }
 
-std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, const Iso3& T_ins_lidar,
-                                                       double time_offset_s, const MovingPointsConfig& config,
-                                                       MovingPointsResult& result) {
-  const auto start = std::chrono::steady_clock::now();
-  result = {};
-  if (!config.enabled) return nullptr;
+namespace {
+
+// The sample frames of the evidence, placed with this extrinsic.
+std::vector<PlacedSweep> placed_sample(const FrameStore& store, const Iso3& T_ins_lidar, double time_offset_s,
+                                       const MovingPointsConfig& config) {
   const std::vector<std::size_t> picks = check_sample(store, config.max_frames, time_offset_s);
-  if (picks.size() < 2 * config.min_free_frames) return nullptr;
+  if (picks.size() < 2 * config.min_free_frames) return {};
   SweepFilter filter = config.filter;
   filter.min_range_m = std::max(filter.min_range_m, store.base_filter().min_range_m);
   const FrameStore unmasked = store.with_mask(nullptr);
@@ -390,29 +388,69 @@ std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, 
   tbb::parallel_for(std::size_t{0}, sweeps.size(), [&](std::size_t k) {
     placed[k] = place(sweeps[k], store.poses(), T_ins_lidar, time_offset_s, store.sweep_period_s());
   });
-  VoxelKeyMap<float> ground = ground_heights(placed, config);
+  return placed;
+}
+
+// The sample points the mask leaves out, into result.
+void tally(const std::vector<PlacedSweep>& placed, const MovingPoints& mask, MovingPointsResult& result) {
+  std::vector<std::pair<std::size_t, std::size_t>> counts(placed.size());  // checked, moving per frame
+  tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
+    for (const Vec3f& p : placed[k].p_world) counts[k].first += p.allFinite(), counts[k].second += mask.moving(p);
+  });
+  for (const auto& [checked, moving] : counts) result.points_checked += checked, result.points_moving += moving;
+  result.frames_used = placed.size();
+}
+
+}  // namespace
+
+std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, const Iso3& T_ins_lidar,
+                                                       double time_offset_s, const MovingPointsConfig& config,
+                                                       MovingPointsResult& result) {
+  std::vector<MovingPointsResult> results;
+  find_moving_points({{&store, T_ins_lidar, time_offset_s}}, 0, config, results);
+  result = results.front();
+  return result.mask;
+}
+
+void find_moving_points(const std::vector<MaskedLidar>& lidars, std::size_t rays_from, const MovingPointsConfig& config,
+                        std::vector<MovingPointsResult>& results) {
+  const auto start = std::chrono::steady_clock::now();
+  results.assign(lidars.size(), MovingPointsResult{});
+  if (!config.enabled || rays_from >= lidars.size()) return;
+  // Each LiDAR's sample over its own ground heights: heights above its own ground agree whatever
+  // its stage-1 tz (decimetres off on a sparse LiDAR), and the evidence voxels count heights.
+  std::vector<std::vector<PlacedSweep>> placed;
+  std::vector<VoxelKeyMap<float>> ground;
+  for (const MaskedLidar& l : lidars) {
+    placed.push_back(placed_sample(*l.store, l.T_ins_lidar, l.time_offset_s, config));
+    ground.push_back(ground_heights(placed.back(), config));
+  }
+  if (placed[rays_from].empty()) return;
+  ShardedCounts counts;
+  for (std::size_t l = 0; l < lidars.size(); ++l) count_evidence(placed[l], ground[l], config, l == rays_from, counts);
   std::vector<std::uint64_t> moving_voxels;
-  for (const VoxelKeyMap<Counts>& part : count_evidence(placed, ground, config)) {
+  std::size_t judged = 0, moving = 0;
+  for (const VoxelKeyMap<Counts>& part : counts) {
     part.for_each([&](std::uint64_t key, const Counts& n) {
       if (n.free < config.min_free_frames) return;
-      ++result.voxels_judged;
+      ++judged;
       if (!moving_space(n, config)) return;
       moving_voxels.push_back(key);
-      result.voxels_moving += n.hit > 0;
+      moving += n.hit > 0;
     });
   }
-  auto mask = std::make_shared<const MovingPoints>(store.poses(), T_ins_lidar, time_offset_s, config,
-                                                   std::move(ground), moving_voxels);
-  std::vector<std::pair<std::size_t, std::size_t>> tally(placed.size());  // checked, moving per frame
-  tbb::parallel_for(std::size_t{0}, placed.size(), [&](std::size_t k) {
-    for (const Vec3f& p : placed[k].p_world) tally[k].first += p.allFinite(), tally[k].second += mask->moving(p);
-  });
-  for (const auto& [checked, moving] : tally) result.points_checked += checked, result.points_moving += moving;
-  result.applied = true;
-  result.mask = mask;
-  result.frames_used = placed.size();
-  result.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  return mask;
+  for (std::size_t l = 0; l < lidars.size(); ++l) {
+    if (placed[l].empty()) continue;
+    MovingPointsResult& r = results[l];
+    auto mask = std::make_shared<const MovingPoints>(lidars[l].store->poses(), lidars[l].T_ins_lidar,
+                                                     lidars[l].time_offset_s, config, std::move(ground[l]), moving_voxels);
+    tally(placed[l], *mask, r);
+    r.voxels_judged = judged;
+    r.voxels_moving = moving;
+    r.applied = true;
+    r.mask = mask;
+    r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
 }
 
 }  // namespace insalign

@@ -38,6 +38,10 @@ struct MovingPointsConfig {
   double end_margin_m = 0.8;       ///< a ray counts as free only up to this short of its point, m
   std::size_t min_free_frames = 3; ///< a voxel seen free by fewer sample frames is not judged
   double max_hit_fraction = 0.2;   ///< hit in at most this fraction of the frames that observed it: moving
+  /// A rig: one evidence for every LiDAR, the reference LiDAR's rays (the most stage-1 planes, the
+  /// densest view) and every LiDAR's points (find_moving_points over several LiDARs); false: each
+  /// LiDAR its own, its rays as expensive as the reference's.
+  bool rig_shared = true;
 };
 
 template <class V>
@@ -53,6 +57,7 @@ void visit_config(V& v, MovingPointsConfig& c) {
   v("end_margin_m", c.end_margin_m, "a ray counts as free only up to this short of its point, m");
   v("min_free_frames", c.min_free_frames, "a voxel seen free by fewer sample frames is not judged");
   v("max_hit_fraction", c.max_hit_fraction, "a voxel hit in at most this fraction of the frames observing it is moving space");
+  v("rig_shared", c.rig_shared, "rig: one evidence, the reference LiDAR's rays and every LiDAR's points (false: each LiDAR its own)");
 }
 
 class MovingPoints;
@@ -107,5 +112,20 @@ class MovingPoints : public PointMask {
 std::shared_ptr<const MovingPoints> find_moving_points(const FrameStore& store, const Iso3& T_ins_lidar,
                                                        double time_offset_s, const MovingPointsConfig& config,
                                                        MovingPointsResult& result);
+
+/// A LiDAR placed for find_moving_points: its store, extrinsic and time offset (stage 1's).
+struct MaskedLidar {
+  const FrameStore* store = nullptr;
+  Iso3 T_ins_lidar = Iso3::Identity();
+  double time_offset_s = 0.0;
+};
+
+/// A rig: one evidence for every LiDAR. The rays of LiDAR `rays_from` (the densest view) say
+/// which space is seen empty, the points of every LiDAR which is hit: a static surface one LiDAR
+/// sees and the other's rays cross is hit, not moving; a car that passed is hit in few frames of
+/// any. Rays cost most of the evidence; points cost little. Each LiDAR's mask judges its points
+/// over its own ground heights (results[l]; voxel counts shared).
+void find_moving_points(const std::vector<MaskedLidar>& lidars, std::size_t rays_from, const MovingPointsConfig& config,
+                        std::vector<MovingPointsResult>& results);
 
 }  // namespace insalign

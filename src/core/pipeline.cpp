@@ -203,10 +203,11 @@ void load_check_frames(const FrameStore& store, const PipelineConfig& config, do
 }
 
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
-                               CalibrationResult& r, FrameGroups& groups) {
+                               CalibrationResult& r, FrameGroups& groups, const MovingPointsResult* moving) {
   r.ins_screen = with_lidar_checks(r.ins_screen, lidar_checks);
   FrameStore out = leave_out_spans(store, lidar_checks.spans);
-  if (auto mask = find_moving_points(out, r.T_ins_lidar, r.time_offset_s, config.moving, r.moving))
+  if (moving) r.moving = *moving;
+  if (auto mask = moving ? moving->mask : find_moving_points(out, r.T_ins_lidar, r.time_offset_s, config.moving, r.moving))
     out = out.with_mask(mask);
   r.excluded = ins_spans(out.excluded());
   if (out.excluded().size() != store.excluded().size()) groups = rough_frame_groups(out, config.rough, r.time_offset_s);

@@ -135,9 +135,10 @@ void load_check_frames(const FrameStore& store, const PipelineConfig& config, do
 /// time: a rig's reference LiDAR's checks serve every LiDAR on the INS) and the points on moving
 /// things masked (config.moving, found with r's stage-1 extrinsic and time offset). r.ins_screen,
 /// r.moving and r.excluded record them; stage 1's `groups` are picked again without the spans
-/// (the repeatability study's stage 1 leaves them out too).
+/// (the repeatability study's stage 1 leaves them out too). `moving`: the mask found already (a
+/// rig's, find_moving_points over its LiDARs), taken instead of one found here.
 FrameStore screen_after_stage1(const FrameStore& store, const InsScreenResult& lidar_checks, const PipelineConfig& config,
-                               CalibrationResult& r, FrameGroups& groups);
+                               CalibrationResult& r, FrameGroups& groups, const MovingPointsResult* moving = nullptr);
 /// After stage 2 (r.refine set): the INS trajectory corrected jointly with the extrinsic, as
 /// config.trajectory decides (r.ins_screen: the drift evidence). Applied, r takes the correction's
 /// extrinsic and stddevs; either way r.ins_drift_stddev holds the drift it measured where r keeps

@@ -690,7 +690,9 @@ Problem joint_problem(const std::vector<RefineLidar>& lidars, const RefineConfig
   for (std::size_t l = 0; l < lidars.size(); ++l) {
     const RefineLidar& in = lidars[l];
     const double margin = offset_free[l] ? config.time_offset_range_s : 0.0;
-    std::vector<Sweep> sweeps = in.store->thinned(in.frames, config.filter);
+    SweepFilter filter = config.filter;
+    if (in.max_points > 0 && (filter.max_points == 0 || in.max_points < filter.max_points)) filter.max_points = in.max_points;
+    std::vector<Sweep> sweeps = in.store->thinned(in.frames, filter);
     if (covered) {
       std::erase_if(sweeps, [&](const Sweep& s) {
         return !sweep_covered(in.store->poses(), s, in.time_offset_start_s, margin + kJacobianLook_s);

@@ -53,6 +53,12 @@ struct JointConfig {
   /// Stage 3 afterwards: the median of the members' own corrections moves every member alike
   /// (keeping the heights stage 2 found between them); false: each LiDAR's own stage 3.
   bool shared_stage3 = true;
+  /// Points per sweep at most that a member other than the anchor gives stage 2 (the anchor keeps
+  /// RefineConfig::filter's). The anchor, the LiDAR with the most stage-1 planes, holds most of
+  /// the shared map's planes; another member's points pin its own seven parameters to them, and
+  /// stage 2's cost grows with the group's points. A dense second LiDAR at 5000 instead of 10000
+  /// (bench/rig_accuracy, the OS1-64 in front) keeps its errors within the same bounds.
+  std::size_t member_max_points = 5000;
   MapCheckConfig map_check;  ///< each LiDAR's stage 1 checked against the best one's map
   /// A group with a LiDAR stage 1 could not determine alone: at most this many unchecked joint
   /// passes (until one moves nothing) before the checked one.
@@ -68,6 +74,7 @@ void visit_config(V& v, JointConfig& c) {
   v("relative_tz", c.relative_tz, "rig: stage 2 moves every member's tz but the anchor's (heights from the shared ground)");
   v("relative_tz_min_sigma_m", c.relative_tz_min_sigma_m, "rig: floor of a member's stated tz stddev relative to the anchor, m");
   v("shared_stage3", c.shared_stage3, "rig: the median of the members' stage-3 tz corrections moves every member alike (false: each its own)");
+  v("member_max_points", c.member_max_points, "rig: points per sweep at most in stage 2 for a member other than the anchor (0: refine.filter's)");
   v("weak_passes", c.weak_passes, "rig: unchecked joint passes at most, before the checked one, when a LiDAR was not determined alone");
   v.section("map_check", c.map_check);
 }
@@ -276,6 +283,9 @@ struct RefineLidar {
   /// Also move its tz (besides config.estimate_tz): a rig's LiDAR whose height is tied to another
   /// one's through the shared ground of the joint map (rig.cpp keeps one anchor's tz fixed).
   bool estimate_tz = false;
+  /// Points per sweep at most, below config.filter's (0: config.filter's): a rig's member beside
+  /// the anchor (JointConfig::member_max_points).
+  std::size_t max_points = 0;
 };
 
 /// Parameters of LiDAR l in the joint state: [7 l, 7 l + 7) = tx ty tz roll pitch yaw (the

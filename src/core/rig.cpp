@@ -160,8 +160,9 @@ void check_against_reference(const std::vector<FrameStore>& stores, const std::v
 
 // After every LiDAR's stage 1 and the map check: the LiDAR checks run once, with the LiDAR whose
 // stage 1 found the most planes (a sparse side LiDAR's registrations and map offsets are weak and
-// noisy), and their spans (INS time) left out of every LiDAR's store; each LiDAR gets its own mask
-// of moving points, found with its own stage 1 (screen_after_stage1, as for one LiDAR).
+// noisy), and their spans (INS time) left out of every LiDAR's store. The moving points: one
+// evidence for the rig (config.moving.rig_shared), that LiDAR's rays and every LiDAR's points
+// placed with its own stage 1; each LiDAR's mask judges its points over its own ground.
 void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameGroups>& rough_groups,
                              const PipelineConfig& config, const PipelineProgress& progress, RigResult& rig) {
   if (progress) progress("screen", 0.0);
@@ -171,9 +172,21 @@ void screen_after_stage1_all(std::vector<FrameStore>& stores, std::vector<FrameG
   const CalibrationResult& rr = rig.lidars[ref].result;
   InsScreenResult checks = lidar_checks(stores[ref], rr.T_ins_lidar, rr.time_offset_s, config.ins_screen);
   for (TimeSpan& span : checks.spans) span.reason += fmt::format(" (found with LiDAR '{}')", rig.lidars[ref].name);
+  std::vector<MovingPointsResult> moving;
+  if (config.moving.rig_shared) {
+    std::vector<FrameStore> screened;
+    std::vector<MaskedLidar> lidars;
+    for (const FrameStore& store : stores) screened.push_back(leave_out_spans(store, checks.spans));
+    for (std::size_t l = 0; l < stores.size(); ++l)
+      lidars.push_back({&screened[l], rig.lidars[l].result.T_ins_lidar, rig.lidars[l].result.time_offset_s});
+    find_moving_points(lidars, ref, config.moving, moving);
+    if (progress) progress("screen", 0.5);
+  }
   for (std::size_t l = 0; l < stores.size(); ++l) {
-    stores[l] = screen_after_stage1(stores[l], checks, config, rig.lidars[l].result, rough_groups[l]);
+    stores[l] = screen_after_stage1(stores[l], checks, config, rig.lidars[l].result, rough_groups[l],
+                                    moving.empty() ? nullptr : &moving[l]);
     if (config.ins_screen.from_lidar) rig.lidars[l].ins_checks_by = rig.lidars[ref].name;
+    if (!moving.empty() && moving[l].applied) rig.lidars[l].moving_space_by = rig.lidars[ref].name;
     if (progress) progress("screen", double(l + 1) / double(stores.size()));
   }
 }
@@ -272,7 +285,8 @@ std::vector<RefineLidar> group_inputs(const std::vector<FrameStore>& stores, con
     const ZResult early_z = correct_z(stores[l], r.T_ins_lidar, r.time_offset_s, config.ins_height_m, config.z, &near[l]);
     if (early_z.determined()) r.T_ins_lidar = early_z.T_ins_lidar;
     in.push_back({rig.lidars[l].name, &stores[l], refine_frames(stores[l], config.refine, r.time_offset_s, margin), r.T_ins_lidar,
-                  r.time_offset_s, true, relative && l != anchor});
+                  r.time_offset_s, true, relative && l != anchor,
+                  members.size() > 1 && l != anchor ? config.refine.joint.member_max_points : 0});
     if (relative) rig.lidars[l].tz_anchor = rig.lidars[anchor].name;
   }
   return in;

@@ -42,6 +42,9 @@ struct RigLidar {
   /// whose stage 1 found the most planes; empty: ins_screen.from_lidar off). result.ins_screen
   /// holds its checks.
   std::string ins_checks_by;
+  /// The LiDAR whose rays gave the rig's one evidence of moving things (MovingPointsConfig::
+  /// rig_shared; empty: its own mask, or none).
+  std::string moving_space_by;
   /// Per DOF: determined by stage 1 alone (what a single-LiDAR run would say), and by the rig.
   std::array<bool, 6> determined_alone{};
   /// Stage 2's formal stddev (m, rad), marginal of the joint covariance (before any widening).

@@ -114,7 +114,8 @@ void write_lidar_dir(const std::filesystem::path& dir, const RigLidar& lidar, co
               {"tz_from_anchor", lidar.tz_from_anchor},
               {"own_stage3_tz_m", finite_or_null(lidar.own_stage3_tz_m)},
               {"map_check", map_check_json(lidar.map_check)},
-              {"ins_checks_by", lidar.ins_checks_by.empty() ? json(nullptr) : json(lidar.ins_checks_by)}};
+              {"ins_checks_by", lidar.ins_checks_by.empty() ? json(nullptr) : json(lidar.ins_checks_by)},
+              {"moving_space_by", lidar.moving_space_by.empty() ? json(nullptr) : json(lidar.moving_space_by)}};
   write_file_atomic(dir / "extrinsic.json", j.dump(2) + "\n");
 }
 
@@ -274,8 +275,9 @@ std::string left_out_line(const RigLidar& lidar) {
                               r.excluded.size(), r.excluded.size() == 1 ? "" : "s");
   if (!lidar.ins_checks_by.empty()) s += " (LiDAR checks by '" + lidar.ins_checks_by + "')";
   if (r.moving.applied && r.moving.points_checked > 0)
-    s += fmt::format("; points on moving things: {:.2f}% of the sampled points",
-                     100.0 * r.moving.points_moving / r.moving.points_checked);
+    s += fmt::format("; points on moving things: {:.2f}% of the sampled points{}",
+                     100.0 * r.moving.points_moving / r.moving.points_checked,
+                     lidar.moving_space_by.empty() ? "" : " (one evidence for the rig, rays of '" + lidar.moving_space_by + "')");
   return s;
 }
 
