@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # A four-LiDAR rig against its roof LiDAR alone (issue 41, point 2): the default `calibrate`
 # (3 segments, report) on the rig of docs/rigs.md and on its roof LiDAR, interleaved, for one or
-# two builds (BEFORE: another build's insalign, e.g. main's), REPEAT rounds in the order
+# two builds (BEFORE: another build's insalign, e.g. main's; or BEFORE_ARGS alone: this build with
+# those arguments, e.g. the --set switches that restore an earlier behaviour), REPEAT rounds in the order
 # rig-after rig-before roof-after roof-off (trajectory.mode=off) roof-before. Prints one line per run: label, wall s, CPU s
 # (user + sys), peak RSS MB; then the medians. The drive is simulated once into WORK_DIR (3.6 GB).
 #   [BUILD_DIR=build] [BEFORE=/work/main/build/src/insalign] [REPEAT=3] [SIM_ARGS="--seed 1"] \
@@ -11,6 +12,8 @@ cd "$(dirname "$0")/.."
 work=${1:?WORK_DIR}
 bin=$(realpath "${BUILD_DIR:-build}/src/insalign")
 before=${BEFORE:-}
+read -r -a before_args <<<"${BEFORE_ARGS:-}"
+[[ -n $before || ${#before_args[@]} -eq 0 ]] || before=$bin
 repeat=${REPEAT:-3}
 read -r -a sim <<<"${SIM_ARGS:---seed 1}"
 read -r -a extra <<<"${CALIBRATE_ARGS:--q}"
@@ -37,12 +40,12 @@ run() {  # label binary args...
 echo "# $(lscpu | sed -n 's/^Model name: *//p'), $(nproc) cores, $(date -u '+%F %H:%M UTC'), load $(cut -d' ' -f1-3 /proc/loadavg)"
 for ((r = 0; r < repeat; ++r)); do
   run rig-after "$bin" "${rig_args[@]}"
-  [[ -z $before ]] || run rig-before "$before" "${rig_args[@]}"
+  [[ -z $before ]] || run rig-before "$before" "${rig_args[@]}" "${before_args[@]}"
   run roof-after "$bin" "${roof_args[@]}"
   # Both estimate the INS trajectory correction wherever the map offsets say the INS may drift
   # (a TUM pose file states no accuracy; the rig with its reference LiDAR): the roof without it too.
   run roof-off "$bin" "${roof_args[@]}" --set trajectory.mode=off
-  [[ -z $before ]] || run roof-before "$before" "${roof_args[@]}"
+  [[ -z $before ]] || run roof-before "$before" "${roof_args[@]}" "${before_args[@]}"
 done
 echo "# load at the end $(cut -d' ' -f1-3 /proc/loadavg); medians: label wall_s cpu_s peak_mb"
 for label in rig-after rig-before roof-after roof-off roof-before; do

@@ -644,7 +644,7 @@ States gauss_newton(const Problem& p, const States& start, const std::vector<boo
   out.covariance = Eigen::MatrixXd::Zero(n_all, n_all);
   for (int a = 0; a < n_dof; ++a)
     for (int b = 0; b < n_dof; ++b) out.covariance(params[a], params[b]) = cov(a, b);
-  if (!planes.empty() && H_active.size() > 0) {
+  if (!config.extrinsic_only && !planes.empty() && H_active.size() > 0) {
     out.ins_shift = ins_shift(frame_shift_sensitivity(p, s, config, planes), H_active, params);
     out.ins_covariance = ins_position_covariance(p, out.ins_shift, config);
     out.frame_t_s.clear();
@@ -829,6 +829,7 @@ JointRefineResult refine_joint(const std::vector<RefineLidar>& lidars, const Ref
                                   : gauss_newton(p, start, offset_free, config, search, progress);
   distribute(search, final_states, result);
   if (!search.undetermined) set_stddevs(search, offset_free, p.tz_free, config, result.lidars);
+  if (config.extrinsic_only) return finish();
   const std::vector<std::size_t> before = occupied_per_lidar(p, start, config.occupancy_voxel_m);
   const std::vector<std::size_t> after = occupied_per_lidar(p, final_states, config.occupancy_voxel_m);
   for (std::size_t l = 0; l < lidars.size(); ++l) {

@@ -140,6 +140,9 @@ struct RefineConfig {
   /// stddev: set by the pipeline for the DOFs its drive's stage 1 could not determine
   /// (PipelineConfig::hold_undetermined), not a file option.
   std::array<bool, 6> held{};
+  /// Only the extrinsic and time offset are read (a repeatability segment): no share of the INS's
+  /// correlated error and no occupancy counts, a tenth of a segment's time. Not a file option.
+  bool extrinsic_only = false;
 };
 
 template <class V>

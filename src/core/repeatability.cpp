@@ -61,6 +61,7 @@ SegmentResult calibrate_segment(const FrameStore& store, const RepeatabilityInpu
     // segment's stage 2) would land there again.
     RefineConfig refine_own = refine_config;
     refine_own.time_offset_scan_step_s = 0.0;
+    refine_own.extrinsic_only = true;
     std::string warning;  // the segments' spread is the verdict here
     const RefineResult refine = refine_checked(store, frames.refine, *start, in.time_offset_full_s,
                                                in.max_speed_mps, refine_own, {}, warning);

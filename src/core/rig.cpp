@@ -538,6 +538,7 @@ void joint_repeatability(const std::vector<RefineLidar>& in, const std::vector<s
   // again (as a single LiDAR's segments, core/repeatability).
   RefineConfig segment_refine = config.refine;
   segment_refine.time_offset_scan_step_s = 0.0;
+  segment_refine.extrinsic_only = true;
   for (int s = 0; s < n; ++s) {
     std::vector<RefineLidar> part = in;
     for (std::size_t k = 0; k < part.size(); ++k) {
