@@ -148,6 +148,7 @@ MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) cons
   const int n_iter = std::max(config_.iterations, 1);
   const double shrink = std::pow(config_.gate_end_m / config_.gate_start_m, 1.0 / std::max(n_iter / 2 - 1, 1));
   double gate_m = config_.gate_start_m;
+  double last_rms_m = -1.0;  // at the final gate
   Iso3 T = T_ins_lidar_start;
   for (int iter = 0; iter < n_iter; ++iter) {
     // While the gate still shrinks the start may be decimetres off: a sample of the points finds
@@ -168,6 +169,10 @@ MapRegistrationResult MapRegistration::solve(const Iso3& T_ins_lidar_start) cons
     gate_m = std::max(gate_m * shrink, config_.gate_end_m);
     if (final_gate && delta.head<3>().norm() < config_.converged_step && delta.tail<3>().norm() < config_.converged_step)
       break;
+    if (!final_gate) continue;
+    const double rms_m = std::sqrt(sys.sum_sq / double(sys.fit.inliers));
+    if (last_rms_m > 0.0 && last_rms_m - rms_m < config_.converged_rms_fraction * last_rms_m) break;
+    last_rms_m = rms_m;
   }
   result.T_ins_lidar = T;
   result.end = fit_at(T);

@@ -31,6 +31,10 @@ struct MapRegistrationConfig {
   int normal_neighbours = 8;       ///< target normals from this many neighbours...
   double max_plane_thickness_m = 0.08;  ///< ...where the patch is at most this thick
   double converged_step = 1e-5;    ///< stop when the update is below this (m and rad)
+  /// ...or when an iteration at the final gate improved the fit's RMS by less than this fraction:
+  /// a slide along a direction the map barely constrains (a millimetre an iteration, seen on a
+  /// side VLP-16) goes on for every iteration allowed and changes no comparison of fits.
+  double converged_rms_fraction = 2e-3;
   std::size_t min_inliers = 300;   ///< fewer associations at the end: not converged
 };
 
@@ -43,6 +47,7 @@ void visit_config(V& v, MapRegistrationConfig& c) {
   v("gate_end_m", c.gate_end_m, "association gate at the end (and of the fit measure), m");
   v("coarse_stride", c.coarse_stride, "the iterations before the gate reaches gate_end_m take every this-th point");
   v("huber_m", c.huber_m, "robust kernel on point-to-plane residuals, m");
+  v("converged_rms_fraction", c.converged_rms_fraction, "stop when an iteration at the final gate improves the RMS by less than this fraction");
 }
 
 /// Rigs: every LiDAR's stage 1 checked against the map of the member whose stage 1 found the most
