@@ -25,7 +25,7 @@ struct MapRegistrationConfig {
   double gate_start_m = 2.0;
   double gate_end_m = 0.3;
   /// The iterations before the gate reaches gate_end_m take every this-th point: they only find
-  /// the basin (a third of the registration's cost before).
+  /// the basin, and with the wide gate their nearest-point searches cost the most.
   std::size_t coarse_stride = 4;
   double huber_m = 0.1;            ///< robust kernel on point-to-plane residuals
   int normal_neighbours = 8;       ///< target normals from this many neighbours...
